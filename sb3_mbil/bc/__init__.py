@@ -1,0 +1,4 @@
+from sb3_mbil.bc.bc import BC
+from sb3_mbil.bc.policies import MlpPolicy
+
+__all__ = ["BC", "MlpPolicy"]

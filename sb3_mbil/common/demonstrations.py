@@ -1,0 +1,395 @@
+"""Expert demonstrations: trajectories of raw observations and actions.
+
+A trajectory of ``T`` steps holds ``T`` actions and ``T + 1`` observations
+(the last one is the final next observation) or, when the final observation is
+unknown, ``T`` observations. ``terminated`` and ``truncated`` are kept apart.
+
+From a set of trajectories we build, never across an episode boundary,
+
+* the ``(s, a)`` pairs behaviour cloning needs,
+* the ``(s, a, s')`` transitions,
+* the consecutive tuples ``(s, a, s', a')`` MBIL's Markov balance equation needs.
+
+Files are compressed ``.npz`` archives read with ``allow_pickle=False``
+and written to a temporary file that is then renamed (whole or not at all).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+from gymnasium import spaces
+
+FORMAT_VERSION = 1
+_REQUIRED_KEYS = ("observations", "actions", "n_observations", "n_actions", "terminated", "truncated")
+
+
+def _ensure_numeric(name: str, array: np.ndarray) -> None:
+    if array.dtype == object:
+        raise ValueError(f"{name}: expected a numeric array, found an object array (dtype=object)")
+    if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
+        raise ValueError(f"{name}: expected a real numeric dtype (integer or float), found dtype={array.dtype}")
+
+
+def _ensure_finite(name: str, array: np.ndarray) -> None:
+    if np.issubdtype(array.dtype, np.floating) and not np.all(np.isfinite(array)):
+        bad = np.argwhere(~np.isfinite(array))[0]
+        raise ValueError(f"{name}: expected finite values, found {array[tuple(bad)]} at index {tuple(int(i) for i in bad)}")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """One expert episode (or a part of one).
+
+    :param observations: raw observations, shape ``(T + 1, *obs_shape)`` including the
+        final next observation, or ``(T, *obs_shape)`` when it is unknown
+    :param actions: actions, shape ``(T,)`` for discrete, ``(T, *action_shape)`` for continuous actions
+    :param terminated: whether the episode ended in a terminal state after the last action
+    :param truncated: whether the episode was cut by a time limit after the last action
+    :param episode_return: the episode's return when known (``nan`` otherwise)
+    """
+
+    observations: np.ndarray
+    actions: np.ndarray
+    terminated: bool = False
+    truncated: bool = False
+    episode_return: float = float("nan")
+
+    def __post_init__(self) -> None:
+        obs = np.asarray(self.observations)
+        act = np.asarray(self.actions)
+        _ensure_numeric("observations", obs)
+        _ensure_numeric("actions", act)
+        if act.ndim == 0 or len(act) == 0:
+            raise ValueError(f"actions: expected at least one action, found shape {act.shape}")
+        if obs.ndim == 0 or len(obs) not in (len(act), len(act) + 1):
+            raise ValueError(
+                f"observations: expected {len(act)} or {len(act) + 1} rows for {len(act)} actions, "
+                f"found shape {obs.shape}"
+            )
+        _ensure_finite("observations", obs)
+        _ensure_finite("actions", act)
+        object.__setattr__(self, "observations", obs)
+        object.__setattr__(self, "actions", act)
+        object.__setattr__(self, "terminated", bool(self.terminated))
+        object.__setattr__(self, "truncated", bool(self.truncated))
+        object.__setattr__(self, "episode_return", float(self.episode_return))
+
+    def __len__(self) -> int:
+        return len(self.actions)
+
+    @property
+    def has_final_observation(self) -> bool:
+        return len(self.observations) == len(self.actions) + 1
+
+
+ExpertData = Union["Demonstrations", str, os.PathLike, Sequence[tuple[np.ndarray, np.ndarray]], Sequence[Trajectory]]
+
+
+@dataclass
+class Demonstrations:
+    """A set of expert trajectories plus metadata (env id, expert source, ...)."""
+
+    trajectories: list[Trajectory]
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.trajectories = list(self.trajectories)
+        if len(self.trajectories) == 0:
+            raise ValueError("trajectories: expected at least one trajectory, found none (no data)")
+        for i, traj in enumerate(self.trajectories):
+            if not isinstance(traj, Trajectory):
+                raise ValueError(f"trajectories[{i}]: expected a Trajectory, found {type(traj).__name__}")
+        first = self.trajectories[0]
+        for i, traj in enumerate(self.trajectories[1:], start=1):
+            if traj.observations.shape[1:] != first.observations.shape[1:]:
+                raise ValueError(
+                    f"trajectories[{i}].observations: expected shape (*, {', '.join(map(str, first.observations.shape[1:]))})"
+                    f" like trajectory 0, found {traj.observations.shape}"
+                )
+            if traj.actions.shape[1:] != first.actions.shape[1:]:
+                raise ValueError(
+                    f"trajectories[{i}].actions: expected shape {('*',) + first.actions.shape[1:]} like trajectory 0, "
+                    f"found {traj.actions.shape}"
+                )
+
+    # ------------------------------------------------------------------ basics
+    def __len__(self) -> int:
+        return len(self.trajectories)
+
+    def __getitem__(self, index: int) -> Trajectory:
+        return self.trajectories[index]
+
+    def __iter__(self):
+        return iter(self.trajectories)
+
+    def __repr__(self) -> str:
+        env = self.metadata.get("env_id", "?")
+        return f"Demonstrations(env_id={env!r}, n_trajectories={len(self)}, n_steps={self.n_steps})"
+
+    @property
+    def n_steps(self) -> int:
+        return int(sum(len(t) for t in self.trajectories))
+
+    @property
+    def episode_returns(self) -> np.ndarray:
+        return np.array([t.episode_return for t in self.trajectories], dtype=np.float64)
+
+    @property
+    def episode_lengths(self) -> np.ndarray:
+        return np.array([len(t) for t in self.trajectories], dtype=np.int64)
+
+    def sample(self, n: int, seed: int | None = None) -> Demonstrations:
+        """Draw ``n`` distinct trajectories, deterministically for a given seed (the paper's protocol)."""
+        if not isinstance(n, (int, np.integer)) or n < 1 or n > len(self):
+            raise ValueError(f"n: expected an integer in [1, {len(self)}], found {n!r}")
+        rng = np.random.default_rng(seed)
+        idx = rng.choice(len(self), size=int(n), replace=False)
+        meta = dict(self.metadata)
+        meta["sampled"] = {"n": int(n), "seed": seed, "indices": [int(i) for i in idx]}
+        return Demonstrations([self.trajectories[i] for i in idx], meta)
+
+    # ------------------------------------------------------------------ views
+    def pairs(self) -> dict[str, np.ndarray]:
+        """All ``(s, a)`` pairs: ``observations`` and ``actions``."""
+        obs = np.concatenate([t.observations[: len(t)] for t in self.trajectories])
+        act = np.concatenate([t.actions for t in self.trajectories])
+        return {"observations": obs, "actions": act}
+
+    def transitions(self) -> dict[str, np.ndarray]:
+        """``(s, a, s')`` inside each trajectory, with ``dones`` = terminated at the final step.
+
+        A trajectory without its final observation contributes ``T - 1`` transitions.
+        """
+        obs, act, nxt, dones = [], [], [], []
+        for t in self.trajectories:
+            n = len(t.observations) - 1
+            if n <= 0:
+                continue
+            obs.append(t.observations[:n])
+            act.append(t.actions[:n])
+            nxt.append(t.observations[1 : n + 1])
+            d = np.zeros(n, dtype=bool)
+            if t.has_final_observation:
+                d[-1] = t.terminated
+            dones.append(d)
+        if not obs:
+            raise ValueError("trajectories: expected at least one with two observations, found none (no transition)")
+        return {
+            "observations": np.concatenate(obs),
+            "actions": np.concatenate(act),
+            "next_observations": np.concatenate(nxt),
+            "dones": np.concatenate(dones),
+        }
+
+    def tuples(self) -> dict[str, np.ndarray]:
+        """Consecutive ``(s, a, s', a')`` inside each trajectory (``T - 1`` per trajectory)."""
+        obs, act, nxt, nxt_act, traj_index = [], [], [], [], []
+        for i, t in enumerate(self.trajectories):
+            n = len(t) - 1
+            if n <= 0:
+                continue
+            obs.append(t.observations[:n])
+            act.append(t.actions[:n])
+            nxt.append(t.observations[1 : n + 1])
+            nxt_act.append(t.actions[1 : n + 1])
+            traj_index.append(np.full(n, i, dtype=np.int64))
+        if not obs:
+            raise ValueError(
+                "trajectories: expected at least one trajectory with 2 or more actions to form (s, a, s', a') tuples, "
+                f"found lengths {self.episode_lengths.tolist()[:10]}"
+            )
+        return {
+            "observations": np.concatenate(obs),
+            "actions": np.concatenate(act),
+            "next_observations": np.concatenate(nxt),
+            "next_actions": np.concatenate(nxt_act),
+            "trajectory_index": np.concatenate(traj_index),
+        }
+
+    # ------------------------------------------------------------------ checks
+    def check_spaces(self, observation_space: spaces.Space, action_space: spaces.Space) -> None:
+        """Raise ``ValueError`` naming the field when the data does not fit the env's spaces."""
+        if not isinstance(observation_space, spaces.Box):
+            raise ValueError(f"observation_space: expected a gymnasium Box, found {observation_space}")
+        for i, t in enumerate(self.trajectories):
+            if t.observations.shape[1:] != observation_space.shape:
+                raise ValueError(
+                    f"trajectories[{i}].observations: expected per-step shape {observation_space.shape} "
+                    f"(from the env's observation space), found {t.observations.shape[1:]}"
+                )
+            if np.issubdtype(observation_space.dtype, np.floating) and not np.can_cast(
+                t.observations.dtype, observation_space.dtype, casting="same_kind"
+            ):
+                raise ValueError(
+                    f"trajectories[{i}].observations: expected a dtype castable to {observation_space.dtype}, "
+                    f"found {t.observations.dtype}"
+                )
+            _check_actions(f"trajectories[{i}].actions", t.actions, action_space)
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write a compressed ``.npz`` atomically (a temporary file renamed into place)."""
+        path = Path(path)
+        if path.suffix != ".npz":
+            path = path.with_suffix(path.suffix + ".npz") if path.suffix else path.with_suffix(".npz")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {
+            "format_version": np.array(FORMAT_VERSION),
+            "observations": np.concatenate([t.observations for t in self.trajectories]),
+            "actions": np.concatenate([t.actions for t in self.trajectories]),
+            "n_observations": np.array([len(t.observations) for t in self.trajectories], dtype=np.int64),
+            "n_actions": np.array([len(t.actions) for t in self.trajectories], dtype=np.int64),
+            "terminated": np.array([t.terminated for t in self.trajectories], dtype=bool),
+            "truncated": np.array([t.truncated for t in self.trajectories], dtype=bool),
+            "episode_returns": self.episode_returns,
+            "metadata_json": np.array(json.dumps(self.metadata, sort_keys=True, default=str)),
+        }
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez_compressed(f, **arrays)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Demonstrations:
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"expert data file not found: {path}")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {k: data[k] for k in data.files}
+        except ValueError as e:  # object arrays need pickle
+            raise ValueError(f"{path}: expected plain numeric arrays (allow_pickle=False), found {e}") from e
+        except Exception as e:
+            raise ValueError(f"{path}: expected a readable .npz archive, found a file numpy cannot read ({e})") from e
+        missing = [k for k in _REQUIRED_KEYS if k not in arrays]
+        if missing:
+            raise ValueError(f"{path}: expected keys {list(_REQUIRED_KEYS)}, missing {missing}")
+        n_obs, n_act = arrays["n_observations"], arrays["n_actions"]
+        n = len(n_act)
+        for key in ("n_observations", "terminated", "truncated"):
+            if len(arrays[key]) != n:
+                raise ValueError(f"{path}: {key}: expected {n} entries (one per trajectory), found {len(arrays[key])}")
+        if int(n_obs.sum()) != len(arrays["observations"]) or int(n_act.sum()) != len(arrays["actions"]):
+            raise ValueError(
+                f"{path}: observations/actions: expected {int(n_obs.sum())}/{int(n_act.sum())} rows from the lengths, "
+                f"found {len(arrays['observations'])}/{len(arrays['actions'])}"
+            )
+        returns = arrays.get("episode_returns", np.full(n, np.nan))
+        meta = {}
+        if "metadata_json" in arrays:
+            meta = json.loads(str(arrays["metadata_json"]))
+        obs_splits = np.split(arrays["observations"], np.cumsum(n_obs)[:-1])
+        act_splits = np.split(arrays["actions"], np.cumsum(n_act)[:-1])
+        trajs = []
+        for i in range(n):
+            try:
+                trajs.append(
+                    Trajectory(
+                        obs_splits[i],
+                        act_splits[i],
+                        terminated=bool(arrays["terminated"][i]),
+                        truncated=bool(arrays["truncated"][i]),
+                        episode_return=float(returns[i]),
+                    )
+                )
+            except ValueError as e:
+                raise ValueError(f"{path}: trajectories[{i}]: {e}") from e
+        return cls(trajs, meta)
+
+
+def _check_actions(name: str, actions: np.ndarray, action_space: spaces.Space) -> None:
+    if isinstance(action_space, spaces.Discrete):
+        flat = actions.reshape(len(actions), -1)
+        if flat.shape[1] != 1:
+            raise ValueError(f"{name}: expected one integer per step for {action_space}, found shape {actions.shape}")
+        flat = flat[:, 0]
+        if np.issubdtype(flat.dtype, np.floating) and not np.all(flat == np.round(flat)):
+            raise ValueError(f"{name}: expected integer actions for {action_space}, found non-integer values")
+        lo, hi = int(action_space.start), int(action_space.start + action_space.n - 1)
+        if flat.min() < lo or flat.max() > hi:
+            bad = flat[(flat < lo) | (flat > hi)][0]
+            raise ValueError(f"{name}: expected actions in [{lo}, {hi}] ({action_space}), found {bad}")
+    elif isinstance(action_space, spaces.Box):
+        if actions.shape[1:] != action_space.shape:
+            raise ValueError(f"{name}: expected per-step shape {action_space.shape}, found {actions.shape[1:]}")
+        tol = 1e-5 * (1 + np.abs(action_space.high - action_space.low))
+        below = actions < action_space.low - tol
+        above = actions > action_space.high + tol
+        if np.any(below | above):
+            idx = tuple(int(i) for i in np.argwhere(below | above)[0])
+            raise ValueError(
+                f"{name}: expected actions within the action space bounds [{action_space.low.min()}, "
+                f"{action_space.high.max()}], found {actions[idx]} at index {idx}"
+            )
+    else:
+        raise ValueError(f"action_space: expected Discrete or Box, found {action_space}")
+
+
+def _from_pairs(items: Iterable[Any]) -> Demonstrations:
+    trajs = []
+    for i, item in enumerate(items):
+        if isinstance(item, Trajectory):
+            trajs.append(item)
+            continue
+        if not isinstance(item, (tuple, list)) or len(item) != 2:
+            raise ValueError(
+                f"expert_data[{i}]: expected an (observations, actions) pair or a Trajectory, found {type(item).__name__}"
+            )
+        try:
+            obs, act = np.asarray(item[0]), np.asarray(item[1])
+        except ValueError as e:
+            raise ValueError(f"expert_data[{i}]: expected rectangular arrays, found ragged data ({e})") from e
+        try:
+            trajs.append(Trajectory(obs, act))
+        except ValueError as e:
+            raise ValueError(f"expert_data[{i}]: {e}") from e
+    return Demonstrations(trajs, {"source": "user arrays"})
+
+
+def load_demonstrations(path: str | os.PathLike) -> Demonstrations:
+    """Load demonstrations from a ``.npz`` file written by :meth:`Demonstrations.save`."""
+    return Demonstrations.load(path)
+
+
+def as_demonstrations(
+    expert_data: ExpertData,
+    observation_space: spaces.Space | None = None,
+    action_space: spaces.Space | None = None,
+) -> Demonstrations:
+    """Accept a :class:`Demonstrations`, a path, or a list of ``(observations, actions)`` pairs, and check it."""
+    if expert_data is None:
+        raise ValueError("expert_data: expected Demonstrations, a path or a list of (observations, actions), found None")
+    if isinstance(expert_data, Demonstrations):
+        demos = expert_data
+    elif isinstance(expert_data, (str, os.PathLike)):
+        demos = load_demonstrations(expert_data)
+    elif isinstance(expert_data, np.ndarray):
+        raise ValueError(
+            "expert_data: expected a list of (observations, actions) pairs, one per trajectory, found a single array"
+        )
+    elif isinstance(expert_data, Iterable):
+        demos = _from_pairs(list(expert_data))
+    else:
+        raise ValueError(
+            f"expert_data: expected Demonstrations, a path or a list of (observations, actions), "
+            f"found {type(expert_data).__name__}"
+        )
+    if observation_space is not None and action_space is not None:
+        demos.check_spaces(observation_space, action_space)
+    return demos

@@ -1,0 +1,195 @@
+"""Base class for strictly batch (offline) imitation algorithms.
+
+The learner never steps the environment: the env gives the spaces and is used
+for evaluation only. One gradient step is one timestep and one
+``callback.on_step()``, so the progress bar, ``EvalCallback`` and
+``CheckpointCallback`` work unchanged and count gradient steps.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any, ClassVar, TypeVar
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
+
+from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demonstrations
+
+SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
+
+
+def check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+    """Refuse, with a clear message, spaces the offline algorithms do not support."""
+    if not isinstance(observation_space, spaces.Box):
+        raise ValueError(f"observation_space: expected a gymnasium Box, found {observation_space}")
+    if isinstance(action_space, spaces.Discrete):
+        if int(action_space.start) != 0:
+            raise ValueError(f"action_space: expected Discrete with start=0, found start={action_space.start}")
+    elif isinstance(action_space, spaces.Box):
+        if not np.all(np.isfinite(action_space.low)) or not np.all(np.isfinite(action_space.high)):
+            raise ValueError(f"action_space: expected finite Box bounds, found {action_space}")
+    else:
+        raise ValueError(f"action_space: expected Discrete or Box, found {action_space}")
+
+
+class OfflineAlgorithm(BaseAlgorithm):
+    """An SB3 algorithm that learns from expert data only.
+
+    :param policy: policy class or alias (``"MlpPolicy"``)
+    :param env: the env (or its id); used for its spaces and for evaluation only
+    :param expert_data: :class:`~sb3_mbil.Demonstrations`, a path to a ``.npz``, a shipped pool name
+        or a list of ``(observations, actions)`` pairs, one per trajectory. Not saved with the model.
+    :param learning_rate: policy learning rate (constant or schedule of the remaining progress)
+    :param batch_size: minibatch size of one gradient step
+    :param policy_kwargs: keyword arguments of the policy
+    :param tensorboard_log: tensorboard log folder (None: no tensorboard)
+    :param verbose: 0 silent, 1 info, 2 debug
+    :param seed: random seed
+    :param device: torch device
+    :param _init_setup_model: build the networks at construction
+    """
+
+    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {}
+
+    def __init__(
+        self,
+        policy: str | type[BasePolicy],
+        env: GymEnv | str | None,
+        expert_data: ExpertData | None = None,
+        learning_rate: float | Schedule = 1e-3,
+        batch_size: int = 64,
+        policy_kwargs: dict[str, Any] | None = None,
+        tensorboard_log: str | None = None,
+        verbose: int = 0,
+        seed: int | None = None,
+        device: th.device | str = "auto",
+        _init_setup_model: bool = True,
+    ):
+        super().__init__(
+            policy=policy,
+            env=env,
+            learning_rate=learning_rate,
+            policy_kwargs=policy_kwargs,
+            tensorboard_log=tensorboard_log,
+            verbose=verbose,
+            device=device,
+            support_multi_env=True,
+            seed=seed,
+        )
+        if env is not None:
+            check_spaces(self.observation_space, self.action_space)
+        elif _init_setup_model:
+            raise ValueError("env: expected a gymnasium env or env id (needed for the spaces), found None")
+        if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+            raise ValueError(f"batch_size: expected a positive integer, found {batch_size!r}")
+        self.expert_data = expert_data
+        self.batch_size = int(batch_size)
+        self._demonstrations: Demonstrations | None = None
+
+    # ------------------------------------------------------------------ data
+    def _excluded_save_params(self) -> list[str]:
+        # The dataset and everything derived from it stay out of the zip.
+        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_data"]
+
+    def set_expert_data(self, expert_data: ExpertData) -> None:
+        """Give (or replace) the expert data, e.g. after ``load`` to continue learning."""
+        self.expert_data = expert_data
+        self._demonstrations = None
+        self._on_new_data()
+
+    def _on_new_data(self) -> None:
+        """Hook: forget caches derived from the data."""
+        self._data = None
+
+    def demonstrations(self) -> Demonstrations:
+        """The checked expert data as :class:`Demonstrations`."""
+        if self._demonstrations is None:
+            if self.expert_data is None:
+                raise ValueError(
+                    "expert_data: expected demonstrations to learn from, found None "
+                    "(pass expert_data= to the constructor, to load, or call set_expert_data)"
+                )
+            self._demonstrations = as_demonstrations(self.expert_data, self.observation_space, self.action_space)
+        return self._demonstrations
+
+    def _to_tensor(self, array: np.ndarray, kind: str) -> th.Tensor:
+        """Observations/continuous actions as flat float32, discrete actions as int64."""
+        if kind == "obs":
+            return th.as_tensor(np.asarray(array, dtype=np.float32).reshape(len(array), -1), device=self.device)
+        if isinstance(self.action_space, spaces.Discrete):
+            return th.as_tensor(np.asarray(array).reshape(len(array)).astype(np.int64), device=self.device)
+        return th.as_tensor(np.asarray(array, dtype=np.float32).reshape(len(array), -1), device=self.device)
+
+    # ------------------------------------------------------------------ hooks
+    def _prepare_training(self) -> None:
+        """Called once at the start of every ``learn`` (after the logger is set)."""
+
+    def _train_step(self) -> None:
+        """One gradient step. Record values with ``self.logger``."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ learn
+    def learn(
+        self: SelfOffline,
+        total_timesteps: int,
+        callback: MaybeCallback = None,
+        log_interval: int = 1000,
+        tb_log_name: str = "run",
+        reset_num_timesteps: bool = True,
+        progress_bar: bool = False,
+    ) -> SelfOffline:
+        """Train for ``total_timesteps`` gradient steps.
+
+        :param total_timesteps: number of gradient steps
+        :param callback: SB3 callback(s), called once per gradient step
+        :param log_interval: dump the logger every this many gradient steps
+        :param tb_log_name: tensorboard run name
+        :param reset_num_timesteps: reset the step counter (False to continue)
+        :param progress_bar: show a progress bar (tqdm and rich)
+        """
+        if self.env is None:
+            raise ValueError("env: expected an env to learn (load the model with env=...), found None")
+        if not isinstance(total_timesteps, (int, np.integer)) and not (
+            isinstance(total_timesteps, float) and total_timesteps.is_integer()
+        ):
+            raise ValueError(f"total_timesteps: expected an integer number of gradient steps, found {total_timesteps!r}")
+        total_timesteps, callback = self._setup_learn(
+            int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
+        )
+        self.demonstrations()  # check the data before anything else
+        self._prepare_training()
+        callback.on_training_start(locals(), globals())
+        self.policy.set_training_mode(True)
+        while self.num_timesteps < total_timesteps:
+            self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
+            self._update_learning_rate(self.policy.optimizer)
+            self._train_step()
+            self.num_timesteps += 1
+            self._n_updates += 1
+            callback.update_locals(locals())
+            if not callback.on_step():
+                break
+            if log_interval > 0 and self.num_timesteps % log_interval == 0:
+                self.dump_logs()
+        self.policy.set_training_mode(False)
+        callback.on_training_end()
+        return self
+
+    def dump_logs(self) -> None:
+        elapsed = max((time.time_ns() - self.start_time) / 1e9, sys.float_info.epsilon)
+        fps = int((self.num_timesteps - self._num_timesteps_at_start) / elapsed)
+        self.logger.record("time/fps", fps)
+        self.logger.record("time/time_elapsed", int(elapsed), exclude="tensorboard")
+        self.logger.record("time/total_timesteps", self.num_timesteps, exclude="tensorboard")
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        self.logger.dump(step=self.num_timesteps)
+
+    def _sample_indices(self, n: int) -> th.Tensor:
+        """A minibatch of ``batch_size`` indices in [0, n), drawn with replacement."""
+        return th.randint(0, n, (self.batch_size,), device=self.device)

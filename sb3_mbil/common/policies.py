@@ -1,0 +1,132 @@
+"""The imitation policy pi_theta(a | s) shared by MBIL and BC.
+
+An MLP with two ReLU hidden layers (the paper's policy) and
+
+* a softmax head for ``Discrete`` actions: pi(a|s) is a probability mass;
+* separate mean and log-std heads for ``Box`` actions: pi(a|s) is a diagonal
+  Gaussian density in the env's raw action units (no squashing, so the density
+  is exactly the Gaussian's; ``predict`` clips to the action bounds).
+
+Deterministic ``predict`` returns the argmax or the mean.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.torch_layers import FlattenExtractor, create_mlp
+from stable_baselines3.common.type_aliases import Schedule
+from torch import nn
+
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+class ImitationPolicy(BasePolicy):
+    """MLP policy with a categorical (Discrete) or Gaussian (Box) head.
+
+    :param observation_space: Box observation space
+    :param action_space: Discrete or Box action space
+    :param lr_schedule: learning rate schedule (for the optimizer)
+    :param net_arch: hidden layer sizes (the paper: two hidden layers)
+    :param activation_fn: activation of the hidden layers (ReLU in the paper)
+    :param log_std_bounds: clamp of the Gaussian head's log standard deviation
+    :param optimizer_class: the optimizer
+    :param optimizer_kwargs: its keyword arguments (e.g. ``weight_decay``)
+    """
+
+    def __init__(
+        self,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+        lr_schedule: Schedule,
+        net_arch: list[int] | None = None,
+        activation_fn: type[nn.Module] = nn.ReLU,
+        log_std_bounds: tuple[float, float] = (-5.0, 2.0),
+        optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
+        optimizer_kwargs: dict[str, Any] | None = None,
+    ):
+        super().__init__(
+            observation_space,
+            action_space,
+            features_extractor_class=FlattenExtractor,
+            normalize_images=False,
+            optimizer_class=optimizer_class,
+            optimizer_kwargs=optimizer_kwargs,
+        )
+        self.net_arch = [64, 64] if net_arch is None else list(net_arch)
+        self.activation_fn = activation_fn
+        self.log_std_bounds = tuple(float(b) for b in log_std_bounds)
+        self.discrete = isinstance(action_space, spaces.Discrete)
+        self._build(lr_schedule)
+
+    def _build(self, lr_schedule: Schedule) -> None:
+        self.features_extractor = self.make_features_extractor()
+        n_in = self.features_extractor.features_dim
+        self.latent = nn.Sequential(*create_mlp(n_in, -1, self.net_arch, self.activation_fn))
+        latent_dim = self.net_arch[-1] if self.net_arch else n_in
+        if self.discrete:
+            self.logits_head = nn.Linear(latent_dim, int(self.action_space.n))
+        else:
+            act_dim = int(math.prod(self.action_space.shape))
+            self.mean_head = nn.Linear(latent_dim, act_dim)
+            self.log_std_head = nn.Linear(latent_dim, act_dim)
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(
+            net_arch=self.net_arch,
+            activation_fn=self.activation_fn,
+            log_std_bounds=self.log_std_bounds,
+            optimizer_class=self.optimizer_class,
+            optimizer_kwargs=self.optimizer_kwargs,
+        )
+        # The features extractor is fixed (flatten): do not pass these on.
+        for key in ("features_extractor_class", "features_extractor_kwargs", "normalize_images", "squash_output"):
+            data.pop(key, None)
+        return data
+
+    # ------------------------------------------------------------------ heads
+    def _latent(self, obs: th.Tensor) -> th.Tensor:
+        return self.latent(self.extract_features(obs, self.features_extractor))
+
+    def logits(self, obs: th.Tensor) -> th.Tensor:
+        return self.logits_head(self._latent(obs))
+
+    def mean_log_std(self, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        h = self._latent(obs)
+        log_std = self.log_std_head(h).clamp(*self.log_std_bounds)
+        return self.mean_head(h), log_std
+
+    def log_prob(self, obs: th.Tensor, actions: th.Tensor) -> th.Tensor:
+        """log pi(a | s): log-mass (Discrete) or log-density in raw action units (Box)."""
+        if self.discrete:
+            logp = th.log_softmax(self.logits(obs), dim=-1)
+            return logp.gather(1, actions.long().view(-1, 1)).squeeze(1)
+        mean, log_std = self.mean_log_std(obs)
+        z = (actions.view_as(mean) - mean) * th.exp(-log_std)
+        return (-0.5 * z.pow(2) - log_std - 0.5 * LOG_2PI).sum(dim=1)
+
+    def mean_action(self, obs: th.Tensor) -> th.Tensor:
+        return self.mean_log_std(obs)[0]
+
+    # ------------------------------------------------------------------ acting
+    def forward(self, obs: th.Tensor, deterministic: bool = False) -> th.Tensor:
+        return self._predict(obs, deterministic)
+
+    def _predict(self, observation: th.Tensor, deterministic: bool = False) -> th.Tensor:
+        if self.discrete:
+            logits = self.logits(observation)
+            if deterministic:
+                return logits.argmax(dim=1)
+            return th.distributions.Categorical(logits=logits).sample()
+        mean, log_std = self.mean_log_std(observation)
+        actions = mean if deterministic else mean + th.randn_like(mean) * log_std.exp()
+        return actions.view(-1, *self.action_space.shape)
+
+
+MlpPolicy = ImitationPolicy

@@ -1,0 +1,293 @@
+"""MBIL: Markov Balance-based Imitation Learning (AAAI 2025), strictly offline.
+
+Update rule (the paper, Eq. 7):
+
+    min_theta  alpha * E_D[ (log P(s', a' | s, a) - log pi_theta(a' | s') - log T(s' | s, a))^2 ]
+             + beta  * L_BC(pi_theta, D)
+
+The first expectation is the squared *balance residual* over consecutive expert tuples
+(s, a, s', a'). P and T are fitted once by maximum likelihood before the policy is trained
+and then frozen, so the balance target ``log P - log T`` is computed once per tuple and kept
+(see :mod:`sb3_mbil.mbil.policies` for how P and T are modelled so that the target is in the
+same measure as pi).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import GymEnv, Schedule
+
+from sb3_mbil.common.demonstrations import ExpertData
+from sb3_mbil.common.flows import EVAL_CHUNK, block_split, fit_conditional_density
+from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
+from sb3_mbil.common.offline import OfflineAlgorithm
+from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel, MlpPolicy
+
+
+class MBIL(OfflineAlgorithm):
+    """Markov Balance-based Imitation Learning.
+
+    Paper: "Markov Balance Satisfaction Improves Performance in Strictly Batch Offline
+    Imitation Learning" (AAAI 2025).
+
+    :param policy: ``"MlpPolicy"`` (two ReLU hidden layers; categorical or Gaussian head)
+    :param env: the env or its id (spaces and evaluation only; never stepped while learning)
+    :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`); not saved with the model
+    :param alpha: weight of the balance term
+    :param beta: weight of the behaviour-cloning term
+    :param learning_rate: policy Adam learning rate (constant or schedule)
+    :param batch_size: policy minibatch size (for each of the two terms)
+    :param bc_loss: ``"auto"`` (NLL for Discrete, MSE of the mean for Box), ``"nll"`` or ``"mse"``
+    :param weight_decay: policy Adam weight decay
+    :param flow_transforms: affine coupling blocks per flow
+    :param flow_hidden: hidden sizes of each coupling block's network (and of the discrete a' model)
+    :param flow_embed_dim: output size of the conditioning network NN_c
+    :param flow_scale_limit: bound on each coupling block's |log scale|
+    :param flow_learning_rate: Adam learning rate of the flows
+    :param flow_batch_size: flow minibatch size
+    :param flow_max_steps: maximum gradient steps of one flow fit
+    :param flow_eval_every: steps between held-out evaluations (early stopping)
+    :param flow_patience: held-out evaluations without improvement before stopping
+    :param noise_grid: Gaussian input-noise levels (standardised units) tried; the held-out
+        log-likelihood picks one per model
+    :param validation_fraction: share of tuples (in blocks of consecutive steps) held out
+    :param flow_refit: after choosing noise and step count, refit on all tuples
+    :param log_density_floor: lower bound on the balance target (log-densities)
+    :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
+    :param tensorboard_log: tensorboard folder
+    :param verbose: verbosity
+    :param seed: random seed
+    :param device: torch device
+    :param _init_setup_model: build the networks at construction
+    """
+
+    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MlpPolicy": MlpPolicy}
+    policy: ImitationPolicy
+    flows: MarkovBalanceModel
+
+    def __init__(
+        self,
+        policy: str | type[ImitationPolicy],
+        env: GymEnv | str | None,
+        expert_data: ExpertData | None = None,
+        alpha: float = 1.0,
+        beta: float = 1.0,
+        learning_rate: float | Schedule = 1e-3,
+        batch_size: int = 64,
+        bc_loss: str = "auto",
+        weight_decay: float = 0.0,
+        flow_transforms: int = 4,
+        flow_hidden: Sequence[int] = (64, 64),
+        flow_embed_dim: int = 32,
+        flow_scale_limit: float = 3.0,
+        flow_learning_rate: float = 1e-3,
+        flow_batch_size: int = 256,
+        flow_max_steps: int = 3000,
+        flow_eval_every: int = 25,
+        flow_patience: int = 10,
+        noise_grid: Sequence[float] = (0.0, 0.02, 0.05, 0.1, 0.2, 0.4),
+        validation_fraction: float = 0.2,
+        flow_refit: bool = True,
+        log_density_floor: float = -50.0,
+        policy_kwargs: dict[str, Any] | None = None,
+        tensorboard_log: str | None = None,
+        verbose: int = 0,
+        seed: int | None = None,
+        device: th.device | str = "auto",
+        _init_setup_model: bool = True,
+    ):
+        super().__init__(
+            policy, env, expert_data, learning_rate, batch_size, policy_kwargs, tensorboard_log, verbose, seed, device,
+            _init_setup_model,
+        )
+        self.alpha = alpha
+        self.beta = beta
+        self.bc_loss = bc_loss
+        self.weight_decay = weight_decay
+        self.flow_transforms = flow_transforms
+        self.flow_hidden = [int(h) for h in flow_hidden]
+        self.flow_embed_dim = flow_embed_dim
+        self.flow_scale_limit = flow_scale_limit
+        self.flow_learning_rate = flow_learning_rate
+        self.flow_batch_size = flow_batch_size
+        self.flow_max_steps = flow_max_steps
+        self.flow_eval_every = flow_eval_every
+        self.flow_patience = flow_patience
+        self.noise_grid = [float(v) for v in noise_grid]
+        self.validation_fraction = validation_fraction
+        self.flow_refit = flow_refit
+        self.log_density_floor = log_density_floor
+        self.flow_report: dict[str, Any] | None = None
+        if _init_setup_model:
+            self._setup_model()
+
+    # ------------------------------------------------------------------ setup
+    def _check_hyperparameters(self) -> None:
+        def need(name: str, ok: bool, expected: str) -> None:
+            if not ok:
+                raise ValueError(f"{name}: expected {expected}, found {getattr(self, name)!r}")
+
+        need("alpha", _is_real(self.alpha) and self.alpha >= 0, "a number >= 0")
+        need("beta", _is_real(self.beta) and self.beta >= 0, "a number >= 0")
+        if self.alpha == 0 and self.beta == 0:
+            raise ValueError("alpha, beta: expected at least one of them > 0, found both 0")
+        need("weight_decay", _is_real(self.weight_decay) and self.weight_decay >= 0, "a number >= 0")
+        for name in ("flow_transforms", "flow_batch_size", "flow_max_steps", "flow_eval_every", "flow_patience"):
+            need(name, isinstance(getattr(self, name), (int, np.integer)) and getattr(self, name) >= 1, "an integer >= 1")
+        need("flow_embed_dim", isinstance(self.flow_embed_dim, (int, np.integer)) and self.flow_embed_dim >= 0, "an integer >= 0")
+        need("flow_hidden", len(self.flow_hidden) >= 1 and min(self.flow_hidden) >= 1, "a non-empty list of positive sizes")
+        need("flow_scale_limit", _is_real(self.flow_scale_limit) and self.flow_scale_limit > 0, "a number > 0")
+        need("flow_learning_rate", _is_real(self.flow_learning_rate) and self.flow_learning_rate > 0, "a number > 0")
+        need("noise_grid", len(self.noise_grid) >= 1 and min(self.noise_grid) >= 0, "a non-empty list of levels >= 0")
+        need("validation_fraction", _is_real(self.validation_fraction) and 0 < self.validation_fraction < 1, "a value in (0, 1)")
+        need("log_density_floor", _is_real(self.log_density_floor), "a finite number")
+
+    def _setup_model(self) -> None:
+        self._check_hyperparameters()
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self._setup_lr_schedule()
+        self.set_random_seed(self.seed)
+        kwargs = dict(self.policy_kwargs)
+        kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": float(self.weight_decay)}
+        self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs)
+        self.policy = self.policy.to(self.device)
+        obs_dim = int(np.prod(self.observation_space.shape))
+        self.flows = MarkovBalanceModel(
+            obs_dim,
+            self.action_space,
+            transforms=self.flow_transforms,
+            hidden=self.flow_hidden,
+            embed_dim=self.flow_embed_dim,
+            scale_limit=self.flow_scale_limit,
+        ).to(self.device)
+        self.flows.eval()
+        self._data = None
+
+    def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
+        # The flows are saved with the policy: load must not replace them with fresh ones.
+        return ["policy", "policy.optimizer", "flows"], []
+
+    # ------------------------------------------------------------------ flows
+    def _tuples(self) -> dict[str, th.Tensor]:
+        demos = self.demonstrations()
+        short = [i for i, t in enumerate(demos) if len(t) < 2]
+        if short:
+            raise ValueError(
+                f"expert_data: expected trajectories of 2 or more steps (MBIL needs consecutive (s, a, s', a')), "
+                f"found {len(short)} shorter ones, e.g. trajectory {short[0]} with {len(demos[short[0]])} step"
+            )
+        t = demos.tuples()
+        return {
+            "s": self._to_tensor(t["observations"], "obs"),
+            "a": self._to_tensor(t["actions"], "act"),
+            "s_next": self._to_tensor(t["next_observations"], "obs"),
+            "a_next": self._to_tensor(t["next_actions"], "act"),
+            "trajectory_index": t["trajectory_index"],
+        }
+
+    def fit_flows(self) -> dict[str, Any]:
+        """Fit T(s' | s, a) and P(a' | s, a, s') on the expert tuples (maximum likelihood).
+
+        Called by the first ``learn``; call it yourself to fit without training the policy.
+        Returns (and keeps in ``self.flow_report``) the chosen noise levels, step counts and
+        held-out log-likelihoods (nats per tuple, raw units).
+        """
+        tup = self._tuples()
+        seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
+        train_idx, val_idx = block_split(tup["trajectory_index"], self.validation_fraction, seed)
+        common = dict(
+            noise_grid=self.noise_grid,
+            learning_rate=self.flow_learning_rate,
+            batch_size=self.flow_batch_size,
+            max_steps=self.flow_max_steps,
+            eval_every=self.flow_eval_every,
+            patience=self.flow_patience,
+            refit=self.flow_refit,
+            seed=seed,
+        )
+        s, a, s_next, a_next = tup["s"], tup["a"], tup["s_next"], tup["a_next"]
+        fitted_t, report_t = fit_conditional_density(
+            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx, **common
+        )
+        fitted_p, report_p = fit_conditional_density(
+            self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common
+        )
+        self.flows.transition.load_state_dict(fitted_t.state_dict())
+        self.flows.next_action.load_state_dict(fitted_p.state_dict())
+        self.flows.fitted.fill_(True)
+        self.flows.eval()
+        self.flow_report = {
+            "transition": report_t.as_dict(),
+            "next_action": report_p.as_dict(),
+            # log P = log T + log P(a' | s, a, s'), on the same held-out tuples
+            "p_heldout_ll": report_t.heldout_ll + report_p.heldout_ll,
+            "transition_heldout_ll": report_t.heldout_ll,
+            "fit_seconds": report_t.seconds + report_p.seconds,
+            "n_tuples": len(s),
+            "n_heldout": len(val_idx),
+        }
+        self._data = None
+        return self.flow_report
+
+    @th.no_grad()
+    def balance_target(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor, a_next: th.Tensor) -> th.Tensor:
+        """log P(s', a' | s, a) - log T(s' | s, a) per tuple, floored at ``log_density_floor``."""
+        if not bool(self.flows.fitted):
+            raise RuntimeError("the flows are not fitted yet: call fit_flows() or learn()")
+        parts = [
+            self.flows.log_p_next_action(s[i : i + EVAL_CHUNK], a[i : i + EVAL_CHUNK], s_next[i : i + EVAL_CHUNK], a_next[i : i + EVAL_CHUNK])
+            for i in range(0, len(s), EVAL_CHUNK)
+        ]
+        target = th.cat(parts)
+        return th.nan_to_num(target, nan=self.log_density_floor).clamp(min=self.log_density_floor)
+
+    # ------------------------------------------------------------------ policy
+    def _prepare_training(self) -> None:
+        if not bool(self.flows.fitted):
+            self.fit_flows()
+        if self._data is None:
+            pairs = self.demonstrations().pairs()
+            tup = self._tuples()
+            self._data = {
+                "obs": self._to_tensor(pairs["observations"], "obs"),
+                "act": self._to_tensor(pairs["actions"], "act"),
+                "s_next": tup["s_next"],
+                "a_next": tup["a_next"],
+                "target": self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"]),
+            }
+        if self.flow_report is not None:
+            for key in ("p_heldout_ll", "transition_heldout_ll", "fit_seconds"):
+                self.logger.record(f"flows/{key}", self.flow_report[key])
+            self.logger.record("flows/transition_noise", self.flow_report["transition"]["noise"])
+            self.logger.record("flows/next_action_noise", self.flow_report["next_action"]["noise"])
+        self.logger.record("flows/target_mean", float(self._data["target"].mean()))
+
+    def _train_step(self) -> None:
+        d = self._data
+        loss = th.zeros((), device=self.device)
+        if self.alpha > 0:
+            # Balance residual (Eq. 7): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'), target cached.
+            j = self._sample_indices(len(d["target"]))
+            residual = d["target"][j] - self.policy.log_prob(d["s_next"][j], d["a_next"][j])
+            balance_loss = residual.pow(2).mean()
+            loss = loss + self.alpha * balance_loss
+            self.logger.record_mean("train/balance_loss", balance_loss.item())
+            self.logger.record_mean("train/residual_mean", residual.mean().item())
+        if self.beta > 0:
+            i = self._sample_indices(len(d["obs"]))
+            bc = bc_loss(self.policy, d["obs"][i], d["act"][i], self._bc_kind)
+            loss = loss + self.beta * bc
+            self.logger.record_mean("train/bc_loss", bc.item())
+        self.policy.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.policy.optimizer.step()
+
+
+def _is_real(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and math.isfinite(float(x))
