@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -270,6 +271,8 @@ class Demonstrations:
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"expert data file not found: {path}")
+        if not zipfile.is_zipfile(path):
+            raise ValueError(f"{path}: expected a readable .npz archive (a zip file), found something else")
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
@@ -362,9 +365,25 @@ def _from_pairs(items: Iterable[Any]) -> Demonstrations:
     return Demonstrations(trajs, {"source": "user arrays"})
 
 
-def load_demonstrations(path: str | os.PathLike) -> Demonstrations:
-    """Load demonstrations from a ``.npz`` file written by :meth:`Demonstrations.save`."""
-    return Demonstrations.load(path)
+POOL_DIR = Path(__file__).resolve().parent.parent / "data"
+
+
+def available_pools() -> list[str]:
+    """Names of the expert pools shipped with the package (``load_demonstrations(name)``)."""
+    return sorted(p.stem for p in POOL_DIR.glob("*.npz"))
+
+
+def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
+    """Load demonstrations from a ``.npz`` file, or a shipped expert pool by env id (``"CartPole-v1"``)."""
+    path = Path(path_or_name)
+    if path.is_file():
+        return Demonstrations.load(path)
+    name = str(path_or_name)
+    if name in available_pools():
+        return Demonstrations.load(POOL_DIR / f"{name}.npz")
+    if path.suffix == ".npz" or os.sep in name:
+        raise FileNotFoundError(f"expert data file not found: {path}")
+    raise ValueError(f"expert_data: expected a file or a shipped pool name {available_pools()}, found {name!r}")
 
 
 def as_demonstrations(

@@ -188,7 +188,7 @@ class FitReport:
     heldout_ll: float
     train_ll: float
     seconds: float
-    candidates: dict = field(default_factory=dict)  # noise -> (held-out LL, best step)
+    candidates: dict = field(default_factory=dict)  # noise -> {"heldout_ll", "steps"}
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -220,13 +220,13 @@ def fit_conditional_density(
     """
     start = time.process_time()
     tr, va = th.as_tensor(train_idx, device=x.device), th.as_tensor(val_idx, device=x.device)
-    candidates: dict[str, tuple[float, int]] = {}
+    candidates: dict[str, dict] = {}
     best: tuple[float, float, int, dict] | None = None  # (val LL, noise, steps, state)
     for k, noise in enumerate(noise_grid):
         model, val_ll, steps, state = _train(
             make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k
         )
-        candidates[f"{noise:g}"] = (val_ll, steps)
+        candidates[f"{noise:g}"] = {"heldout_ll": val_ll, "steps": steps}
         if best is None or val_ll > best[0]:
             best = (val_ll, float(noise), steps, state)
     assert best is not None

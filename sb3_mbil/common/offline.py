@@ -71,6 +71,8 @@ class OfflineAlgorithm(BaseAlgorithm):
         device: th.device | str = "auto",
         _init_setup_model: bool = True,
     ):
+        if hasattr(env, "observation_space") and hasattr(env, "action_space"):
+            check_spaces(env.observation_space, env.action_space)  # before SB3's own checks
         super().__init__(
             policy=policy,
             env=env,

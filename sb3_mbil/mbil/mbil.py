@@ -91,7 +91,7 @@ class MBIL(OfflineAlgorithm):
         flow_max_steps: int = 3000,
         flow_eval_every: int = 25,
         flow_patience: int = 10,
-        noise_grid: Sequence[float] = (0.0, 0.02, 0.05, 0.1, 0.2, 0.4),
+        noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
         validation_fraction: float = 0.2,
         flow_refit: bool = True,
         log_density_floor: float = -50.0,

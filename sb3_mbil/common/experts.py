@@ -1,0 +1,335 @@
+"""Expert agents from the RL Zoo and expert demonstrations generated with them.
+
+Sources of an expert:
+
+* ``"hub"``: the RL Zoo's pretrained agent ``sb3/<algo>-<env>`` on the Hugging Face Hub, through
+  ``huggingface_sb3``; a copy already in the local hub cache is used without the network. When the
+  hub cannot be reached (checked in about a second), one log line says so and the local zoo
+  training below is used instead.
+* ``"zoo"``: train the same agent locally with rl_zoo3's own shipped hyperparameters, through
+  rl_zoo3's own training command (one torch thread), keeping the best checkpoint of its
+  ``EvalCallback``. Runs are cached by (algo, env, seed), so a second call reuses them.
+* a path to a saved SB3 model (``.zip``), with ``--algo``.
+
+An expert is accepted only when its mean return over ``n_eval_episodes`` reaches the env's
+threshold; a zoo-trained expert below it is retrained with the next seed.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.utils import check_for_correct_spaces
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
+
+logger = logging.getLogger("sb3_mbil.experts")
+
+HUB_HOST = "huggingface.co"
+
+
+@dataclass(frozen=True)
+class ExpertSpec:
+    """Which RL Zoo agent is the expert of an env, and the return it must reach to be accepted."""
+
+    algo: str
+    min_return: float
+
+
+# The paper's experts (DQN CartPole, A2C Acrobot, PPO LunarLander), from the RL Zoo.
+EXPERTS: dict[str, ExpertSpec] = {
+    "CartPole-v1": ExpertSpec("dqn", 475.0),
+    "Acrobot-v1": ExpertSpec("a2c", -100.0),
+    "LunarLander-v3": ExpertSpec("ppo", 200.0),
+}
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("SB3_MBIL_CACHE", Path.home() / ".cache" / "sb3_mbil"))
+
+
+@dataclass
+class Expert:
+    """A trained agent that acts on raw observations (through its VecNormalize statistics if any)."""
+
+    model: BaseAlgorithm
+    env_id: str
+    algo: str
+    source: str
+    vec_normalize: VecNormalize | None = None
+
+    def act(self, observations: np.ndarray) -> np.ndarray:
+        obs = np.asarray(observations)
+        if self.vec_normalize is not None:
+            obs = self.vec_normalize.normalize_obs(obs)
+        actions, _ = self.model.predict(obs, deterministic=True)
+        return actions
+
+
+# ---------------------------------------------------------------------- loading
+def _algo_class(algo: str) -> type[BaseAlgorithm]:
+    from rl_zoo3.utils import ALGOS
+
+    if algo not in ALGOS:
+        raise ValueError(f"algo: expected one of the RL Zoo's algorithms {sorted(ALGOS)}, found {algo!r}")
+    return ALGOS[algo]
+
+
+def load_expert_file(path: str | os.PathLike, env_id: str, algo: str, vec_normalize_path: str | os.PathLike | None = None,
+                     source: str | None = None) -> Expert:
+    """Load a saved SB3 model as the expert of ``env_id``; clear errors for a corrupt file or a wrong env."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"expert model file not found: {path}")
+    env = gym.make(env_id)
+    try:
+        model = _algo_class(algo).load(path, device="cpu")
+    except Exception as e:
+        raise ValueError(f"{path}: expected a saved {algo.upper()} model (.zip), found a file SB3 cannot load ({e!r})") from e
+    try:
+        check_for_correct_spaces(env, model.observation_space, model.action_space)
+    except ValueError as e:
+        raise ValueError(
+            f"{path}: expected a model for {env_id} (observation space {env.observation_space}, action space "
+            f"{env.action_space}), found one for observation space {model.observation_space}, action space "
+            f"{model.action_space}"
+        ) from e
+    vec_norm = None
+    if vec_normalize_path is not None and Path(vec_normalize_path).is_file():
+        vec_norm = VecNormalize.load(str(vec_normalize_path), DummyVecEnv([lambda: gym.make(env_id)]))
+        vec_norm.training = False
+        vec_norm.norm_reward = False
+    return Expert(model, env_id, algo, source or f"file:{path}", vec_norm)
+
+
+def hub_reachable(timeout: float = 1.5) -> bool:
+    """Is the Hugging Face Hub reachable? Answers in about ``timeout`` seconds, not after 20 s of retries."""
+    if os.environ.get("HF_HUB_OFFLINE", "0").lower() in ("1", "true", "yes", "on"):
+        return False
+    try:
+        # resolve and connect with a deadline (getaddrinfo has none of its own: run it in a thread)
+        import concurrent.futures
+
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            infos = pool.submit(socket.getaddrinfo, HUB_HOST, 443, 0, socket.SOCK_STREAM).result(timeout=timeout)
+        with socket.create_connection(infos[0][4][:2], timeout=timeout):
+            return True
+    except Exception:
+        return False
+
+
+def load_hub_expert(env_id: str, algo: str, org: str = "sb3", online: bool | None = None) -> Expert:
+    """The RL Zoo agent ``{org}/{algo}-{env_id}`` from the Hugging Face Hub (or its local cache).
+
+    Raises ``LookupError`` when it is neither reachable nor cached.
+    """
+    from huggingface_hub import hf_hub_download
+    from huggingface_sb3 import ModelName, ModelRepoId, load_from_hub
+
+    model_name = ModelName(algo, env_id)
+    repo_id = str(ModelRepoId(org, model_name))
+    online = hub_reachable() if online is None else online
+    try:
+        if online:
+            os.environ.setdefault("TRUST_REMOTE_CODE", "True")  # SB3 zips are pickles: the RL Zoo's own agents
+            model_path = load_from_hub(repo_id, model_name.filename)
+        else:
+            model_path = hf_hub_download(repo_id, model_name.filename, local_files_only=True)
+    except Exception as e:
+        raise LookupError(f"{repo_id} is not reachable on the Hugging Face Hub nor in its local cache ({type(e).__name__})") from e
+    vec_norm_path = None
+    try:
+        vec_norm_path = hf_hub_download(repo_id, "vec_normalize.pkl", local_files_only=not online)
+    except Exception:
+        pass  # agents trained without VecNormalize have none
+    return load_expert_file(model_path, env_id, algo, vec_norm_path, source=f"hub:{repo_id}")
+
+
+def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
+    return cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}"
+
+
+def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
+                     verbose: int = 1) -> Expert:
+    """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
+
+    Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
+    seed, n_timesteps) in the cache is reused.
+    """
+    folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
+    run = folder / algo / f"{env_id}_1"
+    if not (run / "best_model.zip").is_file() or not (run / f"{env_id}.zip").is_file():
+        budget = n_timesteps or _zoo_budget(env_id, algo)
+        cmd = [
+            sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env", env_id, "--seed", str(seed),
+            "-f", str(folder), "--num-threads", "1", "--vec-env", "dummy",
+            "--eval-freq", str(max(budget // n_evaluations, 1)), "--eval-episodes", "20", "--n-eval-envs", "1",
+        ]
+        if n_timesteps is not None:
+            cmd += ["-n", str(n_timesteps)]
+        if verbose:
+            logger.info("training the expert locally with rl_zoo3: %s", " ".join(cmd))
+        if folder.exists():  # an interrupted run: start it again from scratch
+            import shutil
+
+            shutil.rmtree(folder)
+        folder.mkdir(parents=True)
+        with open(folder.with_suffix(".log"), "w") as log:
+            proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
+        if proc.returncode != 0 or not (run / "best_model.zip").is_file():
+            raise RuntimeError(f"rl_zoo3 training failed (exit {proc.returncode}); see {folder.with_suffix('.log')}")
+    return load_expert_file(run / "best_model.zip", env_id, algo, run / env_id / "vecnormalize.pkl",
+                            source=f"zoo:{algo} seed={seed}")
+
+
+def _zoo_budget(env_id: str, algo: str) -> int:
+    import rl_zoo3
+    import yaml
+
+    with open(Path(rl_zoo3.__file__).parent / "hyperparams" / f"{algo}.yml") as f:
+        table = yaml.safe_load(f)
+    if env_id not in table:
+        raise ValueError(f"env: expected an env with RL Zoo hyperparameters for {algo}, found {env_id!r} (not in {algo}.yml)")
+    return int(float(table[env_id]["n_timesteps"]))
+
+
+# ---------------------------------------------------------------------- rollouts
+def rollout(expert: Expert, n_episodes: int, seed: int, n_envs: int = 16, progress: bool = False,
+            env_kwargs: dict[str, Any] | None = None) -> Demonstrations:
+    """Run the expert for ``n_episodes`` (episode i reset with seed + i); raw observations are stored."""
+    envs = [gym.make(expert.env_id, **(env_kwargs or {})) for _ in range(min(n_envs, n_episodes))]
+    results: dict[int, Trajectory] = {}
+    state: list[dict | None] = [None] * len(envs)
+    next_ep = 0
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=n_episodes, desc=f"{expert.env_id} episodes", unit="ep")
+
+    def start(k: int) -> None:
+        nonlocal next_ep
+        if next_ep >= n_episodes:
+            state[k] = None
+            return
+        obs, _ = envs[k].reset(seed=seed + next_ep)
+        state[k] = {"ep": next_ep, "obs": [obs], "act": [], "ret": 0.0}
+        next_ep += 1
+
+    for k in range(len(envs)):
+        start(k)
+    while any(s is not None for s in state):
+        live = [k for k, s in enumerate(state) if s is not None]
+        actions = expert.act(np.stack([state[k]["obs"][-1] for k in live]))
+        for k, action in zip(live, actions):
+            s = state[k]
+            obs, reward, terminated, truncated, _ = envs[k].step(action)
+            s["obs"].append(obs)
+            s["act"].append(action)
+            s["ret"] += float(reward)
+            if terminated or truncated:
+                results[s["ep"]] = Trajectory(
+                    np.array(s["obs"]), np.array(s["act"]), terminated=terminated, truncated=truncated, episode_return=s["ret"]
+                )
+                if bar is not None:
+                    bar.update(1)
+                start(k)
+    if bar is not None:
+        bar.close()
+    return Demonstrations([results[i] for i in range(n_episodes)], {"env_id": expert.env_id})
+
+
+def evaluate_expert(expert: Expert, n_episodes: int = 100, seed: int = 10**6) -> tuple[float, float]:
+    """Mean and std of the expert's return over ``n_episodes`` (seeds apart from the pool's)."""
+    returns = rollout(expert, n_episodes, seed).episode_returns
+    return float(returns.mean()), float(returns.std())
+
+
+def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: int = 0, min_return: float | None = None,
+               n_eval_episodes: int = 100, max_attempts: int = 5, n_timesteps: int | None = None) -> tuple[Expert, dict]:
+    """An accepted expert for ``env_id`` from ``source`` (``"hub"``, ``"zoo"`` or a model path).
+
+    Returns the expert and an evaluation record. Raises ``ValueError`` when no expert reaches the
+    return threshold (a weak expert is never used silently).
+    """
+    spec = EXPERTS.get(env_id)
+    algo = algo or (spec.algo if spec else None)
+    if algo is None:
+        raise ValueError(f"algo: expected the RL Zoo algorithm of the expert for {env_id!r} (no default), found None")
+    threshold = min_return if min_return is not None else (spec.min_return if spec else None)
+    if threshold is None:
+        logger.warning("no return threshold for %s: the expert is accepted whatever it scores (pass min_return)", env_id)
+    attempts = []
+    for attempt in range(max_attempts):
+        attempt_seed = seed + attempt
+        if source == "hub":
+            try:
+                expert = load_hub_expert(env_id, algo)
+            except LookupError as e:
+                logger.warning("Hugging Face Hub unavailable (%s): training the expert locally with rl_zoo3 instead", e)
+                source = "zoo"
+                expert = train_zoo_expert(env_id, algo, attempt_seed, n_timesteps)
+        elif source == "zoo":
+            expert = train_zoo_expert(env_id, algo, attempt_seed, n_timesteps)
+        else:
+            expert = load_expert_file(source, env_id, algo, Path(source).parent / env_id / "vecnormalize.pkl")
+        t0 = time.time()
+        mean, std = evaluate_expert(expert, n_eval_episodes)
+        record = {"source": expert.source, "algo": algo, "seed": attempt_seed, "eval_mean_return": mean,
+                  "eval_std_return": std, "eval_episodes": n_eval_episodes, "min_return": threshold,
+                  "eval_seconds": round(time.time() - t0, 1)}
+        attempts.append(record)
+        logger.info("expert %s: mean return %.1f +- %.1f over %d episodes (threshold %s)", expert.source, mean, std,
+                    n_eval_episodes, threshold)
+        if threshold is None or mean >= threshold:
+            record["attempts"] = attempts[:-1]
+            return expert, record
+        if source != "zoo":
+            break
+    raise ValueError(
+        f"expert for {env_id}: expected a mean return >= {threshold} over {n_eval_episodes} episodes, "
+        f"found {json.dumps([(a['source'], round(a['eval_mean_return'], 1)) for a in attempts])}"
+    )
+
+
+def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub", seed: int = 0, out: str | os.PathLike | None = None,
+                            algo: str | None = None, min_return: float | None = None, n_eval_episodes: int = 100,
+                            progress: bool = True, command: str | None = None) -> tuple[Demonstrations, Path | None]:
+    """Get an accepted expert, roll it out ``n_trajectories`` times (episode i seeded ``seed + i``), save atomically."""
+    if not isinstance(n_trajectories, int) or n_trajectories < 1:
+        raise ValueError(f"n_trajectories: expected a positive integer, found {n_trajectories!r}")
+    expert, record = get_expert(env_id, source, algo, seed, min_return, n_eval_episodes)
+    demos = rollout(expert, n_trajectories, seed, progress=progress)
+    returns, lengths = demos.episode_returns, demos.episode_lengths
+    import gymnasium
+    import stable_baselines3
+
+    from sb3_mbil.version import __version__
+
+    demos.metadata.update({
+        "env_id": env_id,
+        "expert": record,
+        "seed": seed,
+        "n_trajectories": n_trajectories,
+        "mean_return": float(returns.mean()),
+        "std_return": float(returns.std()),
+        "mean_length": float(lengths.mean()),
+        "command": command,
+        "versions": {"sb3_mbil": __version__, "gymnasium": gymnasium.__version__, "stable_baselines3": stable_baselines3.__version__},
+        "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    })
+    path = demos.save(out) if out is not None else None
+    return demos, path

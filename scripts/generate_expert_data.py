@@ -1,0 +1,43 @@
+"""Generate expert demonstrations with an RL Zoo agent.
+
+    python scripts/generate_expert_data.py --env CartPole-v1 --n-trajectories 1000 --source hub --seed 0 \\
+        --out sb3_mbil/data/CartPole-v1.npz
+
+--source hub: the RL Zoo's agent on the Hugging Face Hub (falls back to zoo when unreachable);
+--source zoo: train it locally with rl_zoo3's own hyperparameters; or a path to a saved model.
+"""
+
+import argparse
+import logging
+import shlex
+import sys
+
+import torch
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", required=True, help="gymnasium env id")
+    parser.add_argument("--n-trajectories", type=int, required=True)
+    parser.add_argument("--source", default="hub", help="hub | zoo | PATH_TO_MODEL.zip")
+    parser.add_argument("--seed", type=int, default=0, help="episode i is reset with seed + i; zoo training seed")
+    parser.add_argument("--out", required=True, help="output .npz (written atomically)")
+    parser.add_argument("--algo", default=None, help="RL Zoo algorithm of the expert (default: the paper's for the env)")
+    parser.add_argument("--min-return", type=float, default=None, help="acceptance threshold (default: per env)")
+    parser.add_argument("--eval-episodes", type=int, default=100, help="episodes of the acceptance test")
+    args = parser.parse_args(argv)
+    torch.set_num_threads(1)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    from sb3_mbil.common.experts import generate_demonstrations
+
+    demos, path = generate_demonstrations(
+        args.env, args.n_trajectories, args.source, args.seed, args.out, args.algo, args.min_return, args.eval_episodes,
+        command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),
+    )
+    r, n = demos.episode_returns, demos.episode_lengths
+    print(f"expert {demos.metadata['expert']['source']}: return {r.mean():.1f} +- {r.std():.1f}, "
+          f"episode length {n.mean():.1f} +- {n.std():.1f} over {len(demos)} trajectories -> {path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,173 @@
+"""SB3 contract of every algorithm: learn, predict, save/load, continue, determinism, callbacks, logging."""
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.monitor import Monitor
+
+from sb3_mbil import BC, MBIL
+
+# Small flows so the API tests stay fast; the flow quality is tested in test_correctness.py.
+FAST = {
+    MBIL: dict(flow_max_steps=60, flow_eval_every=20, noise_grid=(0.1,), flow_hidden=(32,), flow_transforms=2),
+    BC: {},
+}
+ALGOS = [MBIL, BC]
+ENVS = ["CartPole-v1", "Pendulum-v1"]
+
+
+def make(algo, env_id, data, **kwargs):
+    return algo("MlpPolicy", env_id, expert_data=data, **{"seed": 0, **FAST[algo], **kwargs})
+
+
+@pytest.fixture
+def data(request, cartpole_data, pendulum_data):
+    return {"CartPole-v1": cartpole_data, "Pendulum-v1": pendulum_data}
+
+
+def params(model):
+    out = {f"policy.{k}": v.clone() for k, v in model.policy.state_dict().items()}
+    if isinstance(model, MBIL):
+        out.update({f"flows.{k}": v.clone() for k, v in model.flows.state_dict().items()})
+    return out
+
+
+def assert_same_params(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        assert th.equal(a[k], b[k]), k
+
+
+@pytest.mark.parametrize("env_id", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_learn_and_predict(algo, env_id, data):
+    model = make(algo, env_id, data[env_id]).learn(50)
+    assert model.num_timesteps == 50
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    action, _ = model.predict(obs, deterministic=True)
+    assert env.action_space.contains(np.asarray(action, dtype=env.action_space.dtype).reshape(env.action_space.shape))
+    batch = np.stack([obs] * 4)
+    actions, _ = model.predict(batch, deterministic=True)
+    assert len(actions) == 4
+
+
+@pytest.mark.parametrize("env_id", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_save_load_identical(algo, env_id, data, tmp_path):
+    model = make(algo, env_id, data[env_id]).learn(30)
+    model.save(tmp_path / "model.zip")
+    obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(16)])
+    before, _ = model.predict(obs, deterministic=True)
+    for env in (None, gym.make(env_id)):
+        loaded = algo.load(tmp_path / "model.zip", env=env)
+        assert_same_params(params(model), params(loaded))
+        after, _ = loaded.predict(obs, deterministic=True)
+        np.testing.assert_array_equal(before, after)
+    # the dataset stays out of the zip
+    assert loaded.expert_data is None
+
+
+def test_mbil_load_restores_flows_without_refitting(data, tmp_path, monkeypatch):
+    model = make(MBIL, "CartPole-v1", data["CartPole-v1"]).learn(20)
+    target = model._data["target"].clone()
+    model.save(tmp_path / "m.zip")
+    loaded = MBIL.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
+    assert bool(loaded.flows.fitted)
+    assert loaded.flow_report == model.flow_report
+
+    def refit(*_, **__):
+        raise AssertionError("fit_flows must not run again after load")
+
+    monkeypatch.setattr(MBIL, "fit_flows", refit)
+    loaded.learn(5, reset_num_timesteps=False)
+    th.testing.assert_close(loaded._data["target"], target)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_learning_continues_after_load(algo, data, tmp_path):
+    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(20)
+    model.save(tmp_path / "m.zip")
+    loaded = algo.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
+    before = params(loaded)
+    loaded.learn(20, reset_num_timesteps=False)
+    assert loaded.num_timesteps == 40
+    changed = [k for k in before if k.startswith("policy.") and not th.equal(before[k], params(loaded)[k])]
+    assert changed
+
+
+@pytest.mark.parametrize("env_id", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_same_seed_same_result(algo, env_id, data):
+    a = make(algo, env_id, data[env_id]).learn(40)
+    b = make(algo, env_id, data[env_id]).learn(40)
+    assert_same_params(params(a), params(b))
+    c = make(algo, env_id, data[env_id], seed=1).learn(40)
+    assert any(not th.equal(params(a)[k], params(c)[k]) for k in params(a) if k.startswith("policy."))
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_callbacks_count_gradient_steps(algo, data, tmp_path):
+    eval_env = Monitor(gym.make("CartPole-v1"))
+    eval_cb = EvalCallback(eval_env, eval_freq=10, n_eval_episodes=1, best_model_save_path=str(tmp_path), log_path=str(tmp_path))
+    ckpt = CheckpointCallback(save_freq=15, save_path=str(tmp_path / "ckpt"), name_prefix="m")
+    make(algo, "CartPole-v1", data["CartPole-v1"]).learn(30, callback=[eval_cb, ckpt])
+    assert len(eval_cb.evaluations_timesteps) == 3
+    assert eval_cb.evaluations_timesteps == [10, 20, 30]
+    assert (tmp_path / "best_model.zip").exists()
+    assert sorted(p.name for p in (tmp_path / "ckpt").iterdir()) == ["m_15_steps.zip", "m_30_steps.zip"]
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_callback_can_stop_training(algo, data):
+    class StopAt(BaseCallback):
+        def _on_step(self):
+            return self.n_calls < 7
+
+    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(100, callback=StopAt())
+    assert model.num_timesteps == 7
+
+
+def test_progress_bar(data):
+    make(BC, "CartPole-v1", data["CartPole-v1"]).learn(10, progress_bar=True)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_logged_values(algo, data, tmp_path):
+    model = make(algo, "CartPole-v1", data["CartPole-v1"])
+    model.set_logger(configure(str(tmp_path), ["csv"]))
+    model.learn(20, log_interval=10)
+    with open(tmp_path / "progress.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2
+    keys = set(rows[0])
+    assert {"train/bc_loss", "time/total_timesteps"} <= keys
+    if algo is MBIL:
+        assert {"train/balance_loss", "train/residual_mean", "flows/transition_heldout_ll", "flows/p_heldout_ll"} <= keys
+        assert np.isfinite(float(rows[0]["flows/p_heldout_ll"]))
+
+
+def test_alpha_beta_variants(data):
+    for alpha, beta in [(1.0, 0.0), (0.0, 1.0), (1.0, 0.001)]:
+        model = make(MBIL, "Pendulum-v1", data["Pendulum-v1"], alpha=alpha, beta=beta).learn(10)
+        assert model.num_timesteps == 10
+
+
+def test_box_bc_losses(data):
+    for kind in ("mse", "nll"):
+        make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss=kind, weight_decay=1e-3).learn(10)
+
+
+def test_gaussian_log_prob_is_a_density_in_raw_units(data):
+    """pi(a|s) for Box actions is the Gaussian density in env units: it integrates to 1 over a."""
+    model = make(BC, "Pendulum-v1", data["Pendulum-v1"])
+    obs = th.zeros(1, 3)
+    grid = th.linspace(-30, 30, 20001).view(-1, 1)
+    with th.no_grad():
+        dens = model.policy.log_prob(obs.expand(len(grid), 3), grid).exp()
+    assert abs(th.trapezoid(dens, grid.view(-1)).item() - 1.0) < 1e-3

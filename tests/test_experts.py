@@ -1,0 +1,110 @@
+"""Expert agents and shipped pools: hub path (offline, against a local hub cache), local zoo training, bad input."""
+
+import logging
+import os
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from stable_baselines3 import DQN
+
+from sb3_mbil import load_demonstrations
+from sb3_mbil.common.demonstrations import available_pools
+from sb3_mbil.common.experts import generate_demonstrations, get_expert, load_expert_file
+
+SHIPPED = {"CartPole-v1": 475.0, "Acrobot-v1": -100.0, "LunarLander-v3": 200.0}
+
+
+@pytest.fixture(scope="module")
+def dqn_zip(tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "dqn-CartPole-v1.zip"
+    DQN("MlpPolicy", "CartPole-v1", learning_starts=0, seed=0).save(path)
+    return path
+
+
+@pytest.mark.parametrize("env_id", [e for e in SHIPPED if e in available_pools()])
+def test_shipped_pools_match_their_envs(env_id):
+    d = load_demonstrations(env_id)
+    env = gym.make(env_id)
+    assert len(d) == 1000
+    d.check_spaces(env.observation_space, env.action_space)
+    assert d.metadata["env_id"] == env_id
+    assert d.episode_returns.mean() >= SHIPPED[env_id]
+    a, b = d.sample(3, seed=0), d.sample(3, seed=0)
+    assert a.metadata["sampled"]["indices"] == b.metadata["sampled"]["indices"]
+
+
+def test_unknown_pool_name_lists_available():
+    with pytest.raises(ValueError, match=r"shipped pool name \["):
+        load_demonstrations("NoSuchEnv-v0")
+
+
+def make_hub_cache(root, model_zip, org="sb3", name="dqn-CartPole-v1"):
+    rev = "0123456789abcdef0123456789abcdef01234567"
+    repo = root / f"models--{org}--{name}"
+    (repo / "refs").mkdir(parents=True)
+    (repo / "refs" / "main").write_text(rev)
+    snap = repo / "snapshots" / rev
+    snap.mkdir(parents=True)
+    (snap / f"{name}.zip").write_bytes(model_zip.read_bytes())
+    return root
+
+
+@pytest.mark.parametrize("offline_flag", ["1", None])
+def test_hub_path_reads_a_local_hub_cache(tmp_path, dqn_zip, offline_flag):
+    cache = make_hub_cache(tmp_path / "hub", dqn_zip)
+    env = {k: v for k, v in os.environ.items() if k != "HF_HUB_OFFLINE"}
+    env["HF_HUB_CACHE"] = str(cache)
+    if offline_flag:
+        env["HF_HUB_OFFLINE"] = offline_flag
+    code = "from sb3_mbil.common.experts import load_hub_expert; e = load_hub_expert('CartPole-v1', 'dqn'); print(e.source)"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "hub:sb3/dqn-CartPole-v1"
+
+
+def test_unreachable_hub_falls_back_to_local_zoo_training(tmp_path, monkeypatch, caplog):
+    """A tiny real rl_zoo3 training of DQN on CartPole, through rl_zoo3's own command line."""
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    caplog.set_level(logging.INFO, logger="sb3_mbil.experts")
+    expert, record = get_expert("CartPole-v1", "hub", seed=3, min_return=0.0, n_eval_episodes=3, n_timesteps=200)
+    assert expert.source == "zoo:dqn seed=3"
+    assert record["eval_episodes"] == 3
+    assert any("training the expert locally with rl_zoo3 instead" in r.message for r in caplog.records)
+    assert (tmp_path / "zoo" / "dqn-CartPole-v1-seed3-n200" / "dqn" / "CartPole-v1_1" / "best_model.zip").is_file()
+
+
+def test_corrupt_or_mismatched_models_are_refused(tmp_path, dqn_zip):
+    junk = tmp_path / "junk.zip"
+    junk.write_bytes(b"PK\x03\x04 not really a zip")
+    with pytest.raises(ValueError, match="SB3 cannot load"):
+        load_expert_file(junk, "CartPole-v1", "dqn")
+    with pytest.raises(ValueError, match="expected a model for Acrobot-v1"):
+        load_expert_file(dqn_zip, "Acrobot-v1", "dqn")
+    with pytest.raises(FileNotFoundError):
+        load_expert_file(tmp_path / "missing.zip", "CartPole-v1", "dqn")
+
+
+def test_weak_expert_is_refused_and_leaves_no_pool(tmp_path, dqn_zip):
+    out = tmp_path / "pool.npz"
+    with pytest.raises(ValueError, match="expected a mean return >= 1000000"):
+        generate_demonstrations("CartPole-v1", 5, str(dqn_zip), out=out, algo="dqn", min_return=1e6, n_eval_episodes=2,
+                                progress=False)
+    assert not out.exists() and os.listdir(tmp_path) == []
+
+
+def test_generate_script(tmp_path, dqn_zip):
+    out = tmp_path / "pool.npz"
+    proc = subprocess.run(
+        [sys.executable, "scripts/generate_expert_data.py", "--env", "CartPole-v1", "--n-trajectories", "4", "--source",
+         str(dqn_zip), "--algo", "dqn", "--min-return", "0", "--eval-episodes", "2", "--out", str(out)],
+        capture_output=True, text=True, timeout=300, cwd=os.path.dirname(os.path.dirname(__file__)),
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "return" in proc.stdout and "episode length" in proc.stdout
+    d = load_demonstrations(out)
+    assert len(d) == 4 and np.all(np.isfinite(d.episode_returns))
+    assert d.metadata["expert"]["algo"] == "dqn"
