@@ -40,17 +40,17 @@ def fitted(request):
 
 
 def test_transition_flow_matches_true_density(fitted):
-    _, _, log_t, _, true_log_t, _ = fitted
+    _, _, log_t, _, true_log_t, _, _ = fitted
     assert abs(log_t.mean() - true_log_t.mean()) < T_TOLERANCE
 
 
 def test_p_flow_matches_true_density(fitted):
-    _, _, _, log_p, true_log_t, true_log_pi = fitted
+    _, _, _, log_p, true_log_t, true_log_pi, _ = fitted
     assert abs(log_p.mean() - (true_log_t + true_log_pi).mean()) < P_TOLERANCE
 
 
 def test_balance_residual_is_zero_at_true_expert(fitted):
-    _, _, log_t, log_p, _, true_log_pi = fitted
+    _, _, log_t, log_p, _, true_log_pi, _ = fitted
     residual = log_p - log_t - true_log_pi
     assert abs(residual.mean()) < RESIDUAL_TOLERANCE
 

@@ -88,4 +88,4 @@ class BC(OfflineAlgorithm):
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()
-        self.logger.record_mean("train/bc_loss", loss.item())
+        self._record("train/bc_loss", loss)

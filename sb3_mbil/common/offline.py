@@ -97,7 +97,7 @@ class OfflineAlgorithm(BaseAlgorithm):
     # ------------------------------------------------------------------ data
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
-        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_data"]
+        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_data", "_train_stats"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
         """Give (or replace) the expert data, e.g. after ``load`` to continue learning."""
@@ -168,6 +168,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         self._prepare_training()
         callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)
+        self._train_stats: dict[str, tuple] = {}
         while self.num_timesteps < total_timesteps:
             self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
             self._update_learning_rate(self.policy.optimizer)
@@ -183,7 +184,15 @@ class OfflineAlgorithm(BaseAlgorithm):
         callback.on_training_end()
         return self
 
+    def _record(self, key: str, value: th.Tensor) -> None:
+        """Accumulate a training statistic; its mean since the last dump is logged (no sync per step)."""
+        total, count = self._train_stats.get(key, (0.0, 0))
+        self._train_stats[key] = (total + value.detach(), count + 1)
+
     def dump_logs(self) -> None:
+        for key, (total, count) in getattr(self, "_train_stats", {}).items():
+            self.logger.record(key, float(total) / count)
+        self._train_stats = {}
         elapsed = max((time.time_ns() - self.start_time) / 1e9, sys.float_info.epsilon)
         fps = int((self.num_timesteps - self._num_timesteps_at_start) / elapsed)
         self.logger.record("time/fps", fps)

@@ -277,13 +277,13 @@ class MBIL(OfflineAlgorithm):
             residual = d["target"][j] - self.policy.log_prob(d["s_next"][j], d["a_next"][j])
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss
-            self.logger.record_mean("train/balance_loss", balance_loss.item())
-            self.logger.record_mean("train/residual_mean", residual.mean().item())
+            self._record("train/balance_loss", balance_loss)
+            self._record("train/residual_mean", residual.mean())
         if self.beta > 0:
             i = self._sample_indices(len(d["obs"]))
             bc = bc_loss(self.policy, d["obs"][i], d["act"][i], self._bc_kind)
             loss = loss + self.beta * bc
-            self.logger.record_mean("train/bc_loss", bc.item())
+            self._record("train/bc_loss", bc)
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()
