@@ -252,7 +252,7 @@ def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_ever
         model = make_model().to(x.device)
         model.fit_statistics(x[tr], c[tr])
         model.train()
-        opt = th.optim.Adam(model.parameters(), lr=lr)
+        opt = th.optim.Adam(model.parameters(), lr=lr, foreach=True)
         best_ll, best_step, best_state, bad = -math.inf, 0, copy.deepcopy(model.state_dict()), 0
         for step in range(1, max_steps + 1):
             idx = tr[th.randint(0, len(tr), (batch_size,), device=x.device)]
