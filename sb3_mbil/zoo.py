@@ -1,0 +1,176 @@
+"""RL Zoo integration: our algorithms, Optuna samplers and default hyperparameters inside rl_zoo3.
+
+``sb3_mbil_zoo_hook`` (installed with a ``.pth`` file) calls :func:`patch` right after rl_zoo3 imports
+``rl_zoo3.utils``, ``rl_zoo3.hyperparams_opt`` and ``rl_zoo3.exp_manager``. Then, with no edit to
+rl_zoo3 and no wrapper command::
+
+    python -m rl_zoo3.train --algo mbil --env CartPole-v1
+    python -m rl_zoo3.enjoy --algo mbil --env CartPole-v1 -f logs/
+    python -m rl_zoo3.train --algo mbil --env CartPole-v1 --optimize --storage URL --study-name NAME
+
+Hyperparameter files (``zoo_hyperparams/<algo>.yml``) have, besides constructor arguments and
+``n_timesteps`` (gradient steps), two keys of ours: ``expert_pool`` (a shipped pool name or a
+``.npz`` path) and ``n_expert_trajectories`` (how many trajectories to draw with the run's seed;
+default 1). Every algorithm in :data:`sb3_mbil.ALGORITHMS` is registered from this one place.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+DATA_KEYS = ("expert_pool", "n_expert_trajectories")
+
+NET_ARCH = {"small": [64, 64], "medium": [256, 256]}
+FLOW_HIDDEN = {"small": [32, 32], "medium": [64, 64], "large": [128, 128]}
+
+
+def hyperparams_file(algo: str) -> Path:
+    """Our default ``<algo>.yml``: inside the installed package, or ``zoo_hyperparams/`` of a source checkout."""
+    for folder in (HERE / "zoo_hyperparams", HERE.parent / "zoo_hyperparams"):
+        if (folder / f"{algo}.yml").is_file():
+            return folder / f"{algo}.yml"
+    raise FileNotFoundError(f"no zoo hyperparameter file for {algo!r} in sb3_mbil")
+
+
+def algorithms() -> dict[str, type]:
+    from sb3_mbil import ALGORITHMS
+
+    return ALGORITHMS
+
+
+# ---------------------------------------------------------------------- Optuna samplers
+def _common(trial) -> dict[str, Any]:
+    return {
+        "learning_rate": trial.suggest_float("learning_rate", 1e-4, 3e-3, log=True),
+        "batch_size": trial.suggest_categorical("batch_size", [32, 64, 128, 256]),
+        "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCH)),
+    }
+
+
+def sample_mbil_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for MBIL: balance and BC weights, policy learning rate and size, flow noise and size."""
+    params = _common(trial)
+    params["alpha"] = trial.suggest_float("alpha", 1e-3, 10.0, log=True)
+    params["beta"] = trial.suggest_float("beta", 1e-3, 10.0, log=True)
+    params["noise"] = trial.suggest_categorical("noise", ["auto", 0.01, 0.03, 0.1, 0.3])
+    params["flow_hidden"] = trial.suggest_categorical("flow_hidden", list(FLOW_HIDDEN))
+    params["flow_transforms"] = trial.suggest_int("flow_transforms", 2, 6)
+    return convert_mbil_params(params)
+
+
+def convert_mbil_params(params: dict[str, Any]) -> dict[str, Any]:
+    out = convert_bc_params(params)
+    noise = out.pop("noise", "auto")
+    if noise != "auto":
+        out["noise_grid"] = [float(noise)]
+    if isinstance(out.get("flow_hidden"), str):
+        out["flow_hidden"] = FLOW_HIDDEN[out["flow_hidden"]]
+    return out
+
+
+def sample_bc_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for BC: learning rate, batch size, network size, weight decay."""
+    params = _common(trial)
+    params["weight_decay"] = trial.suggest_categorical("weight_decay", [0.0, 1e-4, 1e-3, 1e-2])
+    return convert_bc_params(params)
+
+
+def convert_bc_params(params: dict[str, Any]) -> dict[str, Any]:
+    out = dict(params)
+    if isinstance(out.get("net_arch"), str):
+        out["policy_kwargs"] = {"net_arch": NET_ARCH[out.pop("net_arch")]}
+    return out
+
+
+SAMPLERS = {"mbil": sample_mbil_params, "bc": sample_bc_params}
+CONVERTERS = {"mbil": convert_mbil_params, "bc": convert_bc_params}
+
+
+# ---------------------------------------------------------------------- rl_zoo3 patches
+def patch(name: str, module) -> None:
+    """Called by the import hook after rl_zoo3 module ``name`` has executed."""
+    if name == "rl_zoo3.utils":
+        module.ALGOS.update(algorithms())
+    elif name == "rl_zoo3.hyperparams_opt":
+        for algo in algorithms():
+            module.HYPERPARAMS_SAMPLER[algo] = SAMPLERS.get(algo, sample_bc_params)
+            module.HYPERPARAMS_CONVERTER[algo] = CONVERTERS.get(algo, convert_bc_params)
+    elif name == "rl_zoo3.exp_manager":
+        _patch_experiment_manager(module.ExperimentManager)
+
+
+def _exit(message: str):
+    raise SystemExit(f"sb3_mbil: {message}")
+
+
+def _patch_experiment_manager(cls) -> None:
+    if getattr(cls, "_sb3_mbil_patched", False):
+        return
+    cls._sb3_mbil_patched = True
+    ours = algorithms()
+    init, read, preprocess = cls.__init__, cls.read_hyperparameters, cls._preprocess_hyperparams
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        config = inspect.signature(init).bind(self, *args, **kwargs).arguments.get("config")
+        if self.algo in ours and config is None:
+            self.config = str(hyperparams_file(self.algo))
+
+    @functools.wraps(read)
+    def read_hyperparameters(self):
+        if self.algo in ours:
+            import yaml
+
+            with open(self.config) as f:
+                table = yaml.safe_load(f) if self.config.endswith((".yml", ".yaml")) else None
+            if table is not None and self.env_name.gym_id not in table and "default" not in table:
+                _exit(
+                    f"no hyperparameters for {self.algo} on {self.env_name.gym_id} in {self.config} "
+                    f"(entries: {', '.join(sorted(table))}); add one, or pass --conf-file with yours"
+                )
+        return read(self)
+
+    @functools.wraps(preprocess)
+    def _preprocess_hyperparams(self, hyperparams):
+        if self.algo not in ours:
+            return preprocess(self, hyperparams)
+        data_spec = {k: hyperparams.pop(k) for k in DATA_KEYS if k in hyperparams}
+        result = preprocess(self, hyperparams)
+        if "expert_data" not in result[0]:
+            result[0]["expert_data"] = _expert_data(self.env_name.gym_id, data_spec, self.seed)
+        return result
+
+    cls.__init__ = __init__
+    cls.read_hyperparameters = read_hyperparameters
+    cls._preprocess_hyperparams = _preprocess_hyperparams
+
+
+def _expert_data(env_id: str, spec: dict[str, Any], seed: int | None):
+    """Draw ``n_expert_trajectories`` from ``expert_pool`` with the run's seed; check it fits the env."""
+    import gymnasium as gym
+
+    from sb3_mbil.common.demonstrations import load_demonstrations
+
+    pool = spec.get("expert_pool", env_id)
+    n = spec.get("n_expert_trajectories", 1)
+    try:
+        demos = load_demonstrations(pool)
+    except (ValueError, FileNotFoundError) as e:
+        _exit(f"expert_pool: {e}")
+    pool_env = demos.metadata.get("env_id")
+    if pool_env is not None and pool_env != env_id:
+        _exit(f"expert_pool: expected demonstrations of {env_id}, found a pool of {pool_env} ({pool!r})")
+    env = gym.make(env_id)
+    try:
+        demos.check_spaces(env.observation_space, env.action_space)
+        demos = demos.sample(int(n), seed=seed)
+    except ValueError as e:
+        _exit(f"expert_pool {pool!r} does not fit {env_id}: {e}")
+    finally:
+        env.close()
+    return demos
