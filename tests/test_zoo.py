@@ -1,0 +1,120 @@
+"""RL Zoo integration through the real command lines (subprocesses), and how the registration is installed."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import optuna
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parent.parent
+TINY = {
+    "mbil": ["--hyperparams", "flow_max_steps:40", "noise_grid:[0.1]", "flow_hidden:[32]"],
+    "bc": [],
+}
+
+
+def run(args, cwd, timeout=600, env=None):
+    return subprocess.run([sys.executable, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout,
+                          env={**os.environ, **(env or {})})
+
+
+def test_interpreter_start_imports_neither_torch_nor_rl_zoo3(tmp_path):
+    code = (
+        "import sys; print(any(type(f).__name__ == 'ZooFinder' for f in sys.meta_path), "
+        "[m for m in ('torch', 'rl_zoo3', 'sb3_mbil', 'stable_baselines3', 'numpy') if m in sys.modules])"
+    )
+    out = run(["-c", code], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True []"
+
+
+@pytest.mark.parametrize("algo", ["mbil", "bc"])
+def test_train_enjoy_record_video(algo, tmp_path):
+    train = run(["-m", "rl_zoo3.train", "--algo", algo, "--env", "CartPole-v1", "-n", "60", "--eval-freq", "30",
+                 "--eval-episodes", "1", "--num-threads", "1", "--seed", "0", "-f", "logs", *TINY[algo]], tmp_path)
+    assert train.returncode == 0, train.stderr[-3000:]
+    run_dir = tmp_path / "logs" / algo / "CartPole-v1_1"
+    assert (run_dir / "best_model.zip").is_file() and (run_dir / "CartPole-v1.zip").is_file()
+    config = dict(yaml.unsafe_load((run_dir / "CartPole-v1" / "config.yml").read_text()))
+    assert config["expert_pool"] == "CartPole-v1" and config["n_expert_trajectories"] == 1
+    assert "Eval num_timesteps=60" in train.stdout  # EvalCallback counts gradient steps
+
+    enjoy = run(["-m", "rl_zoo3.enjoy", "--algo", algo, "--env", "CartPole-v1", "-f", "logs", "--no-render", "-n", "30"],
+                tmp_path)
+    assert enjoy.returncode == 0, enjoy.stderr[-3000:]
+
+    video = run(["-m", "rl_zoo3.record_video", "--algo", algo, "--env", "CartPole-v1", "-f", "logs", "-n", "20",
+                 "-o", "videos"], tmp_path)
+    assert video.returncode == 0, video.stderr[-3000:]
+    assert list((tmp_path / "videos").glob("*.mp4"))
+
+
+def test_number_of_trajectories_is_a_hyperparameter(tmp_path):
+    train = run(["-m", "rl_zoo3.train", "--algo", "bc", "--env", "Acrobot-v1", "-n", "5", "--eval-freq", "-1",
+                 "--num-threads", "1", "--seed", "0", "-f", "logs", "--hyperparams", "n_expert_trajectories:3"], tmp_path)
+    assert train.returncode == 0, train.stderr[-3000:]
+    config = dict(yaml.unsafe_load((tmp_path / "logs/bc/Acrobot-v1_1/Acrobot-v1/config.yml").read_text()))
+    assert config["n_expert_trajectories"] == 3
+
+
+def test_optimize_two_workers_share_one_study(tmp_path):
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    optuna.create_study(storage=storage, study_name="mbil-cartpole", direction="maximize")
+    args = ["-m", "rl_zoo3.train", "--algo", "mbil", "--env", "CartPole-v1", "-optimize", "--storage", storage,
+            "--study-name", "mbil-cartpole", "--n-trials", "1", "-n", "40", "--n-evaluations", "1", "--eval-episodes", "1",
+            "--num-threads", "1", "--sampler", "random", "--pruner", "none", "--no-optim-plots", "-f", "logs",
+            *TINY["mbil"]]
+    workers = [subprocess.Popen([sys.executable, *args], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True) for _ in range(2)]
+    for w in workers:
+        _, err = w.communicate(timeout=600)
+        assert w.returncode == 0, err[-3000:]
+    study = optuna.load_study(study_name="mbil-cartpole", storage=storage)
+    complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+    assert len(complete) == 2
+    assert {"alpha", "beta", "noise", "flow_hidden", "learning_rate"} <= set(complete[0].params)
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--env", "Pendulum-v1"], "sb3_mbil: no hyperparameters for mbil on Pendulum-v1"),
+        (["--env", "CartPole-v1", "--hyperparams", "expert_pool:'Acrobot-v1'"],
+         "sb3_mbil: expert_pool: expected demonstrations of CartPole-v1, found a pool of Acrobot-v1"),
+        (["--env", "CartPole-v1", "--hyperparams", "expert_pool:'NoSuchPool'"], "shipped pool name"),
+    ],
+)
+def test_bad_input_stops_with_a_clear_message(tmp_path, extra, message):
+    out = run(["-m", "rl_zoo3.train", "--algo", "mbil", "-n", "5", "-f", "logs", *extra], tmp_path)
+    assert out.returncode != 0
+    assert message in out.stderr
+    assert "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("editable", [False, True], ids=["install", "editable"])
+def test_install_ships_the_registration(tmp_path, editable):
+    """`pip install .` and `pip install -e .` put sb3_mbil_zoo.pth in site-packages; uninstall removes it."""
+    src = tmp_path / "src"
+    shutil.copytree(REPO, src, ignore=shutil.ignore_patterns(".git", ".venv", "build", "*.egg-info", "__pycache__", "logs"))
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    py = venv / "bin" / "python"
+    cmd = [str(py), "-m", "pip", "install", "-q", "--no-deps", *(["-e"] if editable else []), str(src)]
+    inst = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert inst.returncode == 0, inst.stderr[-3000:]
+    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True).stdout.strip()
+    pth = Path(purelib) / "sb3_mbil_zoo.pth"
+    assert pth.read_text().strip() == "import sb3_mbil_zoo_hook"
+    check = subprocess.run([str(py), "-c", "import sys; print(any(type(f).__name__ == 'ZooFinder' for f in sys.meta_path))"],
+                           capture_output=True, text=True, cwd=tmp_path)
+    assert check.stdout.strip() == "True", check.stderr
+    if not editable:
+        assert (Path(purelib) / "sb3_mbil" / "zoo_hyperparams" / "mbil.yml").is_file()
+        assert (Path(purelib) / "sb3_mbil" / "data" / "CartPole-v1.npz").is_file()
+    subprocess.run([str(py), "-m", "pip", "uninstall", "-y", "-q", "sb3_mbil"], check=True, capture_output=True)
+    assert not pth.exists()
