@@ -1,0 +1,49 @@
+"""MBIL's wall time (flow fitting and policy updates separately) against BC's, on the same data, in one run.
+
+    python scripts/bench_speed.py --env LunarLander-v3 --n-trajectories 1 15 --steps 2000 --out results/speed.csv
+"""
+
+import argparse
+import csv
+import os
+import subprocess
+import tempfile
+
+from sb3_mbil import load_demonstrations
+from sb3_mbil.speed import measure_speed
+
+
+def commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True).stdout.strip()
+    except Exception:
+        return "unknown"
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="LunarLander-v3")
+    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 15])
+    p.add_argument("--steps", type=int, default=2000, help="policy updates per timing block")
+    p.add_argument("--repeats", type=int, default=3, help="interleaved timing blocks (medians reported)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default=None, help="CSV to write (whole, atomically)")
+    a = p.parse_args(argv)
+    rows = []
+    for n in a.n_trajectories:
+        demos = load_demonstrations(a.env).sample(n, seed=a.seed)
+        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed), "commit": commit()}
+        rows.append(row)
+        print(", ".join(f"{k}={v}" for k, v in row.items()), flush=True)
+    if a.out:
+        os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(a.out) or ".", suffix=".tmp")
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        os.replace(tmp, a.out)
+
+
+if __name__ == "__main__":
+    main()
