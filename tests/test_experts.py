@@ -108,3 +108,57 @@ def test_generate_script(tmp_path, dqn_zip):
     d = load_demonstrations(out)
     assert len(d) == 4 and np.all(np.isfinite(d.episode_returns))
     assert d.metadata["expert"]["algo"] == "dqn"
+
+
+def test_a_fresh_install_trains_mbil_on_three_lunarlander_trajectories():
+    from sb3_mbil import MBIL
+
+    demos = load_demonstrations("LunarLander-v3").sample(3, seed=0)
+    model = MBIL("MlpPolicy", "LunarLander-v3", expert_data=demos, seed=0, flow_max_steps=40, noise_grid=(0.1,))
+    model.learn(20)
+    report = model.flow_report
+    # the binary leg-contact dimensions must not make the flows' likelihood blow up
+    assert np.isfinite(report["transition_heldout_ll"]) and report["transition_heldout_ll"] < 100
+
+
+def test_imitation_converters_roundtrip():
+    from dataclasses import dataclass
+
+    from sb3_mbil.common.imitation_compat import from_imitation, to_imitation
+
+    @dataclass(frozen=True)
+    class ImitationTrajectory:  # the fields and constructor of imitation.data.types.Trajectory
+        obs: np.ndarray
+        acts: np.ndarray
+        infos: object
+        terminal: bool
+
+    @dataclass(frozen=True)
+    class ImitationTrajectoryWithRew(ImitationTrajectory):
+        rews: np.ndarray = None
+
+    d = load_demonstrations("CartPole-v1").sample(2, seed=1)
+    converted = to_imitation(d, trajectory_class=ImitationTrajectory)
+    assert len(converted) == 2 and converted[0].obs.shape[0] == converted[0].acts.shape[0] + 1
+    back = from_imitation(converted)
+    for a, b in zip(d, back):
+        np.testing.assert_array_equal(a.observations, b.observations)
+        np.testing.assert_array_equal(a.actions, b.actions)
+        assert a.terminated == b.terminated
+    with_rew = [ImitationTrajectoryWithRew(t.obs, t.acts, None, t.terminal, np.ones(len(t.acts))) for t in converted]
+    np.testing.assert_array_equal(from_imitation(with_rew).episode_returns, d.episode_lengths)
+    with pytest.raises(ValueError, match="expected an imitation Trajectory"):
+        from_imitation([object()])
+
+
+def test_to_imitation_without_imitation_says_how_to_install():
+    from sb3_mbil.common.imitation_compat import to_imitation
+
+    try:
+        import imitation  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match=r"sb3_mbil\[imitation\]"):
+            to_imitation(load_demonstrations("CartPole-v1").sample(1, seed=0))
+    else:
+        converted = to_imitation(load_demonstrations("CartPole-v1").sample(1, seed=0))
+        assert type(converted[0]).__module__.startswith("imitation")
