@@ -84,7 +84,7 @@ class BC(OfflineAlgorithm):
 
     def _train_step(self) -> None:
         idx = self._sample_indices(len(self._data["obs"]))
-        loss = bc_loss(self.policy, self._data["obs"][idx], self._data["act"][idx], self._bc_kind)
+        loss = bc_loss(self.policy, self.policy.heads(self._data["obs"][idx]), self._data["act"][idx], self._bc_kind)
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import torch as th
 from gymnasium import spaces
 
@@ -21,8 +23,11 @@ def resolve_bc_loss(kind: str, action_space: spaces.Space) -> str:
     return kind
 
 
-def bc_loss(policy: ImitationPolicy, observations: th.Tensor, actions: th.Tensor, kind: str) -> th.Tensor:
-    """L_BC: -E[log pi(a|s)] (``"nll"``) or E[||mean(s) - a||^2] (``"mse"``, Box actions)."""
+def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Tensor, kind: str) -> th.Tensor:
+    """L_BC from the policy's outputs at the expert states (``policy.heads(s)``).
+
+    ``"nll"``: -E[log pi(a|s)]; ``"mse"`` (Box actions): E[(mean(s) - a)^2].
+    """
     if kind == "nll":
-        return -policy.log_prob(observations, actions).mean()
-    return (policy.mean_action(observations) - actions).pow(2).mean()
+        return -policy.log_prob_from_heads(heads, actions).mean()
+    return (heads[0] - actions.view_as(heads[0])).pow(2).mean()

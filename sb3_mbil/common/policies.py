@@ -13,6 +13,7 @@ Deterministic ``predict`` returns the argmax or the mean.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import torch as th
@@ -94,37 +95,47 @@ class ImitationPolicy(BasePolicy):
     def _latent(self, obs: th.Tensor) -> th.Tensor:
         return self.latent(self.extract_features(obs, self.features_extractor))
 
-    def logits(self, obs: th.Tensor) -> th.Tensor:
-        return self.logits_head(self._latent(obs))
-
-    def mean_log_std(self, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+    def heads(self, obs: th.Tensor) -> tuple[th.Tensor, ...]:
+        """The network's outputs: ``(logits,)`` for Discrete, ``(mean, log_std)`` for Box."""
         h = self._latent(obs)
-        log_std = self.log_std_head(h).clamp(*self.log_std_bounds)
-        return self.mean_head(h), log_std
-
-    def log_prob(self, obs: th.Tensor, actions: th.Tensor) -> th.Tensor:
-        """log pi(a | s): log-mass (Discrete) or log-density in raw action units (Box)."""
         if self.discrete:
-            logp = th.log_softmax(self.logits(obs), dim=-1)
+            return (self.logits_head(h),)
+        return self.mean_head(h), self.log_std_head(h).clamp(*self.log_std_bounds)
+
+    def log_prob_from_heads(self, heads: Sequence[th.Tensor], actions: th.Tensor) -> th.Tensor:
+        """log pi(a | s) from :meth:`heads`: log-mass (Discrete) or log-density in raw action units (Box)."""
+        if self.discrete:
+            logp = th.log_softmax(heads[0], dim=-1)
             return logp.gather(1, actions.long().view(-1, 1)).squeeze(1)
-        mean, log_std = self.mean_log_std(obs)
+        mean, log_std = heads
         z = (actions.view_as(mean) - mean) * th.exp(-log_std)
         return (-0.5 * z.pow(2) - log_std - 0.5 * LOG_2PI).sum(dim=1)
 
+    def log_prob(self, obs: th.Tensor, actions: th.Tensor) -> th.Tensor:
+        """log pi(a | s)."""
+        return self.log_prob_from_heads(self.heads(obs), actions)
+
+    def logits(self, obs: th.Tensor) -> th.Tensor:
+        return self.heads(obs)[0]
+
+    def mean_log_std(self, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        mean, log_std = self.heads(obs)
+        return mean, log_std
+
     def mean_action(self, obs: th.Tensor) -> th.Tensor:
-        return self.mean_log_std(obs)[0]
+        return self.heads(obs)[0]
 
     # ------------------------------------------------------------------ acting
     def forward(self, obs: th.Tensor, deterministic: bool = False) -> th.Tensor:
         return self._predict(obs, deterministic)
 
     def _predict(self, observation: th.Tensor, deterministic: bool = False) -> th.Tensor:
+        heads = self.heads(observation)
         if self.discrete:
-            logits = self.logits(observation)
             if deterministic:
-                return logits.argmax(dim=1)
-            return th.distributions.Categorical(logits=logits).sample()
-        mean, log_std = self.mean_log_std(observation)
+                return heads[0].argmax(dim=1)
+            return th.distributions.Categorical(logits=heads[0]).sample()
+        mean, log_std = heads
         actions = mean if deterministic else mean + th.randn_like(mean) * log_std.exp()
         return actions.view(-1, *self.action_space.shape)
 

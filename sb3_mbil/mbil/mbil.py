@@ -270,18 +270,24 @@ class MBIL(OfflineAlgorithm):
 
     def _train_step(self) -> None:
         d = self._data
+        # One forward pass over both minibatches: expert states s for the BC term, next states s'
+        # for the balance term.
+        i = self._sample_indices(len(d["obs"])) if self.beta > 0 else None
+        j = self._sample_indices(len(d["target"])) if self.alpha > 0 else None
+        states = [x for x in (None if i is None else d["obs"][i], None if j is None else d["s_next"][j]) if x is not None]
+        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
+        n_bc = 0 if i is None else len(i)
         loss = th.zeros((), device=self.device)
-        if self.alpha > 0:
-            # Balance residual (Eq. 7): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'), target cached.
-            j = self._sample_indices(len(d["target"]))
-            residual = d["target"][j] - self.policy.log_prob(d["s_next"][j], d["a_next"][j])
+        if j is not None:
+            # Balance residual (Eq. 7): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'); the first two cached.
+            log_pi = self.policy.log_prob_from_heads([h[n_bc:] for h in heads], d["a_next"][j])
+            residual = d["target"][j] - log_pi
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss
             self._record("train/balance_loss", balance_loss)
             self._record("train/residual_mean", residual.mean())
-        if self.beta > 0:
-            i = self._sample_indices(len(d["obs"]))
-            bc = bc_loss(self.policy, d["obs"][i], d["act"][i], self._bc_kind)
+        if i is not None:
+            bc = bc_loss(self.policy, [h[:n_bc] for h in heads], d["act"][i], self._bc_kind)
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
         self.policy.optimizer.zero_grad(set_to_none=True)
