@@ -23,11 +23,13 @@ def resolve_bc_loss(kind: str, action_space: spaces.Space) -> str:
     return kind
 
 
-def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Tensor, kind: str) -> th.Tensor:
+def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Tensor, kind: str,
+            log_prob: th.Tensor | None = None) -> th.Tensor:
     """L_BC from the policy's outputs at the expert states (``policy.heads(s)``).
 
-    ``"nll"``: -E[log pi(a|s)]; ``"mse"`` (Box actions): E[(mean(s) - a)^2].
+    ``"nll"``: -E[log pi(a|s)] (pass ``log_prob`` if already computed); ``"mse"`` (Box actions):
+    E[(mean(s) - a)^2].
     """
     if kind == "nll":
-        return -policy.log_prob_from_heads(heads, actions).mean()
+        return -(policy.log_prob_from_heads(heads, actions) if log_prob is None else log_prob).mean()
     return (heads[0] - actions.view_as(heads[0])).pow(2).mean()

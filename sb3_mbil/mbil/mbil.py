@@ -254,12 +254,15 @@ class MBIL(OfflineAlgorithm):
         if self._data is None:
             pairs = self.demonstrations().pairs()
             tup = self._tuples()
+            obs, act = self._to_tensor(pairs["observations"], "obs"), self._to_tensor(pairs["actions"], "act")
             self._data = {
-                "obs": self._to_tensor(pairs["observations"], "obs"),
-                "act": self._to_tensor(pairs["actions"], "act"),
-                "s_next": tup["s_next"],
-                "a_next": tup["a_next"],
+                # (s, a) pairs for the BC term, then (s', a') of the tuples for the balance term
+                "states": th.cat([obs, tup["s_next"]]),
+                "actions": th.cat([act, tup["a_next"]]),
+                "n_pairs": len(obs),
+                "n_tuples": len(tup["s_next"]),
                 "target": self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"]),
+                "empty": th.zeros(0, dtype=th.long, device=self.device),
             }
         if self.flow_report is not None:
             for key in ("p_heldout_ll", "transition_heldout_ll", "fit_seconds"):
@@ -270,24 +273,26 @@ class MBIL(OfflineAlgorithm):
 
     def _train_step(self) -> None:
         d = self._data
-        # One forward pass over both minibatches: expert states s for the BC term, next states s'
-        # for the balance term.
-        i = self._sample_indices(len(d["obs"])) if self.beta > 0 else None
-        j = self._sample_indices(len(d["target"])) if self.alpha > 0 else None
-        states = [x for x in (None if i is None else d["obs"][i], None if j is None else d["s_next"][j]) if x is not None]
-        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
-        n_bc = 0 if i is None else len(i)
-        loss = th.zeros((), device=self.device)
-        if j is not None:
+        # One forward pass over both minibatches: expert states s (BC term) and next states s'
+        # (balance term), stored back to back in d["states"] / d["actions"].
+        i = self._sample_indices(d["n_pairs"]) if self.beta > 0 else d["empty"]
+        j = self._sample_indices(d["n_tuples"]) if self.alpha > 0 else d["empty"]
+        idx = th.cat([i, j + d["n_pairs"]])
+        heads = self.policy.heads(d["states"][idx])
+        actions = d["actions"][idx]
+        n = len(i)
+        log_pi = self.policy.log_prob_from_heads(heads, actions) if (self.alpha > 0 or self._bc_kind == "nll") else None
+        loss = 0.0
+        if self.alpha > 0:
             # Balance residual (Eq. 7): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'); the first two cached.
-            log_pi = self.policy.log_prob_from_heads([h[n_bc:] for h in heads], d["a_next"][j])
-            residual = d["target"][j] - log_pi
+            residual = d["target"][j] - log_pi[n:]
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss
             self._record("train/balance_loss", balance_loss)
-            self._record("train/residual_mean", residual.mean())
-        if i is not None:
-            bc = bc_loss(self.policy, [h[:n_bc] for h in heads], d["act"][i], self._bc_kind)
+            self._record("train/residual_mean", residual.detach().mean())
+        if self.beta > 0:
+            bc = bc_loss(self.policy, [h[:n] for h in heads], actions[:n], self._bc_kind,
+                         log_prob=None if log_pi is None else log_pi[:n])
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
         self.policy.optimizer.zero_grad(set_to_none=True)
