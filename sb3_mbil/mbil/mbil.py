@@ -88,7 +88,7 @@ class MBIL(OfflineAlgorithm):
         flow_scale_limit: float = 3.0,
         flow_learning_rate: float = 1e-3,
         flow_batch_size: int = 256,
-        flow_max_steps: int = 2000,
+        flow_max_steps: int = 1000,
         flow_eval_every: int = 25,
         flow_patience: int = 10,
         noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
