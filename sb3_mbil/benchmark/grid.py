@@ -1,0 +1,95 @@
+"""One benchmark run: draw N expert trajectories with the run's seed, train with the algorithm's
+tuned settings for the env, evaluate the deterministic policy on many episodes."""
+
+from __future__ import annotations
+
+import itertools
+import subprocess
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+RESULT_COLUMNS = [
+    "algo", "env", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "train_seconds",
+    "flow_fit_seconds", "gradient_steps", "settings", "commit",
+]
+KEY_COLUMNS = ("algo", "env", "n_trajectories", "seed")
+
+
+@dataclass(frozen=True)
+class Run:
+    algo: str
+    env: str
+    n_trajectories: int
+    seed: int
+
+    def key(self) -> tuple[str, ...]:
+        return tuple(str(v) for v in asdict(self).values())
+
+
+def make_grid(algos, envs, n_trajectories, seeds) -> list[Run]:
+    return [Run(a, e, int(n), int(s)) for e, n, a, s in itertools.product(envs, n_trajectories, algos, seeds)]
+
+
+def git_commit() -> str:
+    try:
+        root = Path(__file__).resolve().parents[2]
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
+                              check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True,
+                               text=True, check=True).stdout.strip()
+        return head + ("-dirty" if dirty else "")
+    except Exception:
+        return "unknown"
+
+
+def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The algorithm's settings for the env from ``zoo_hyperparams/<algo>.yml`` (the same the RL Zoo uses)."""
+    import yaml
+
+    from sb3_mbil.zoo import DATA_KEYS, hyperparams_file
+
+    with open(hyperparams_file(algo)) as f:
+        table = yaml.safe_load(f)
+    if env not in table:
+        raise ValueError(f"env: expected an entry for {env} in {hyperparams_file(algo)}, found entries {sorted(table)}")
+    settings = {k: v for k, v in table[env].items() if k not in DATA_KEYS and k != "policy"}
+    settings.update(overrides or {})
+    return settings
+
+
+def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]] | None = None, commit: str | None = None,
+            n_eval_envs: int = 20) -> dict[str, Any]:
+    """Train and evaluate one (algo, env, N, seed); returns the result row.
+
+    ``overrides``: per algorithm, settings that replace the tuned ones (``{"mbil": {"alpha": 0.1}}``).
+    """
+    import torch as th
+
+    from sb3_mbil import ALGORITHMS, load_demonstrations
+    from sb3_mbil.common.evaluation import evaluate
+
+    th.set_num_threads(1)
+    settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo))
+    steps = int(float(settings.pop("n_timesteps")))
+    demos = load_demonstrations(run.env).sample(run.n_trajectories, seed=run.seed)
+    t0 = time.perf_counter()
+    model = ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
+    model.learn(steps)
+    train_seconds = time.perf_counter() - t0
+    returns = evaluate(model, run.env, n_episodes, seed=1_000_000 + run.seed, n_envs=n_eval_envs)
+    report = getattr(model, "flow_report", None) or {}
+    return {
+        **asdict(run),
+        "mean_return": float(np.mean(returns)),
+        "std_return": float(np.std(returns)),
+        "n_episodes": len(returns),
+        "train_seconds": round(train_seconds, 1),
+        "flow_fit_seconds": round(report.get("fit_seconds", 0.0), 1),
+        "gradient_steps": steps,
+        "settings": repr(sorted({**settings, "n_timesteps": steps}.items())),
+        "commit": commit or git_commit(),
+    }

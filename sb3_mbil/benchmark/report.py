@@ -1,0 +1,129 @@
+"""Tables, the Figure 3 plot and normalised aggregate scores (rliable) from a results CSV."""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections import defaultdict
+
+import numpy as np
+
+# Random-policy returns (DESIGN.md section 6) and published anchors (best published baseline,
+# read off the figures of earlier papers, about +-10; their data kept every 20th step).
+RANDOM_RETURN = {"CartPole-v1": 20.0, "Acrobot-v1": -500.0, "LunarLander-v3": -180.0}
+PUBLISHED_BEST = {
+    "CartPole-v1": {1: 459, 3: 485, 7: 500, 10: 500, 15: 500},
+    "Acrobot-v1": {1: -82, 3: -75, 7: -75, 10: -75, 15: -75},
+    "LunarLander-v3": {1: 130, 3: 252, 7: 285, 10: 285, 15: 285},
+}
+PUBLISHED_BC = {
+    "CartPole-v1": {1: 170, 3: 300, 7: 400, 10: 450, 15: 500},
+    "Acrobot-v1": {1: -160, 3: -90, 7: -75, 10: -75, 15: -75},
+    "LunarLander-v3": {1: -50, 3: 69, 7: 243, 10: 252, 15: 260},
+}
+
+
+def read_rows(path: str) -> list[dict]:
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        r["n_trajectories"], r["seed"] = int(r["n_trajectories"]), int(r["seed"])
+        r["mean_return"] = float(r["mean_return"])
+    return rows
+
+
+def expert_returns(envs) -> dict[str, float]:
+    from sb3_mbil import load_demonstrations
+
+    return {e: float(load_demonstrations(e).episode_returns.mean()) for e in envs}
+
+
+def grouped(rows) -> dict[tuple[str, str, int], np.ndarray]:
+    out = defaultdict(list)
+    for r in rows:
+        out[(r["algo"], r["env"], r["n_trajectories"])].append(r["mean_return"])
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def table(rows) -> str:
+    g = grouped(rows)
+    envs = sorted({r["env"] for r in rows})
+    algos = sorted({r["algo"] for r in rows})
+    ns = sorted({r["n_trajectories"] for r in rows})
+    expert = expert_returns(envs)
+    lines = []
+    for env in envs:
+        lines.append(f"\n{env} (expert {expert[env]:.1f}, random {RANDOM_RETURN.get(env, float('nan')):.0f})\n")
+        lines.append("| algo | " + " | ".join(f"N={n}" for n in ns) + " |")
+        lines.append("|---|" + "---|" * len(ns))
+        for algo in algos:
+            cells = []
+            for n in ns:
+                v = g.get((algo, env, n))
+                cells.append("" if v is None else f"{v.mean():.1f} +- {v.std():.1f} ({len(v)})")
+            lines.append(f"| {algo} | " + " | ".join(cells) + " |")
+        for label, ref in (("published best (every 20th step)", PUBLISHED_BEST), ("published BC (every 20th step)", PUBLISHED_BC)):
+            if env in ref:
+                lines.append(f"| {label} | " + " | ".join(str(ref[env].get(n, "")) for n in ns) + " |")
+    return "\n".join(lines)
+
+
+def normalised_scores(rows) -> dict[str, np.ndarray]:
+    """Per algorithm: (runs x tasks) matrix of (return - random) / (expert - random); tasks = (env, N)."""
+    envs = sorted({r["env"] for r in rows})
+    expert = expert_returns(envs)
+    g = grouped(rows)
+    tasks = sorted({(e, n) for (_, e, n) in g})
+    out = {}
+    for algo in sorted({r["algo"] for r in rows}):
+        cols = [g.get((algo, e, n)) for e, n in tasks]
+        if any(c is None for c in cols):
+            continue
+        k = min(len(c) for c in cols)
+        out[algo] = np.stack([(c[:k] - RANDOM_RETURN[e]) / (expert[e] - RANDOM_RETURN[e]) for c, (e, _) in zip(cols, tasks)], 1)
+    return out
+
+
+def aggregate(rows, reps: int = 2000) -> dict[str, dict[str, tuple[float, float, float]]]:
+    """IQM and mean normalised score with stratified-bootstrap 95% intervals (rliable)."""
+    from rliable import library as rly
+    from rliable import metrics
+
+    scores = normalised_scores(rows)
+    if not scores:
+        return {}
+    fns = lambda x: np.array([metrics.aggregate_iqm(x), metrics.aggregate_mean(x)])  # noqa: E731
+    point, ci = rly.get_interval_estimates(scores, fns, reps=reps)
+    return {a: {"iqm": (point[a][0], ci[a][0, 0], ci[a][1, 0]), "mean": (point[a][1], ci[a][0, 1], ci[a][1, 1])} for a in scores}
+
+
+def plot(rows, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    g = grouped(rows)
+    envs = sorted({r["env"] for r in rows})
+    algos = sorted({r["algo"] for r in rows})
+    expert = expert_returns(envs)
+    fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 4), squeeze=False)
+    for ax, env in zip(axes[0], envs):
+        for algo in algos:
+            ns = sorted(n for (a, e, n) in g if a == algo and e == env)
+            if not ns:
+                continue
+            m = np.array([g[(algo, env, n)].mean() for n in ns])
+            se = np.array([g[(algo, env, n)].std(ddof=1) / np.sqrt(len(g[(algo, env, n)])) if len(g[(algo, env, n)]) > 1 else 0.0 for n in ns])
+            ax.plot(ns, m, marker="o", label=algo.upper())
+            ax.fill_between(ns, m - 1.96 * se, m + 1.96 * se, alpha=0.2)
+        ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
+        if env in RANDOM_RETURN:
+            ax.axhline(RANDOM_RETURN[env], color="gray", ls=":", lw=1, label="random")
+        ax.set_title(env)
+        ax.set_xlabel("expert trajectories")
+        ax.set_ylabel("average return")
+    axes[0][0].legend()
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    fig.savefig(path, dpi=120)

@@ -1,0 +1,66 @@
+"""Run a grid as Ray tasks (local Ray by default, or a cluster with ``address``), one torch thread each.
+
+The driver appends each row to the CSV as soon as its task finishes; rows already in the CSV are
+skipped, so an interrupted grid resumes and loses nothing.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any
+
+from sb3_mbil.benchmark.grid import KEY_COLUMNS, RESULT_COLUMNS, Run, git_commit, run_one
+from sb3_mbil.benchmark.results import append_row, finished_keys
+
+logger = logging.getLogger("sb3_mbil.benchmark")
+
+
+def pending(runs: list[Run], csv_path: str) -> list[Run]:
+    done = finished_keys(csv_path, KEY_COLUMNS)
+    return [r for r in runs if r.key() not in done]
+
+
+def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None) -> int:
+    """Without Ray, one run after the other (for debugging)."""
+    todo, commit = pending(runs, csv_path), git_commit()
+    for run in todo:
+        row = run_one(run, n_episodes, overrides, commit)
+        append_row(csv_path, row, RESULT_COLUMNS)
+        logger.info("%s", row)
+    return len(todo)
+
+
+def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
+            address: str | None = None, num_cpus: int | None = None) -> int:
+    """The grid as Ray tasks; returns the number of runs done now."""
+    import ray
+
+    todo, commit = pending(runs, csv_path), git_commit()
+    if not todo:
+        return 0
+    env_vars = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
+    if address:
+        ray.init(address=address, runtime_env={"env_vars": env_vars})
+    else:
+        ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False, runtime_env={"env_vars": env_vars},
+                 log_to_driver=False)
+    task = ray.remote(num_cpus=1, max_retries=1)(run_one)
+    futures = {task.remote(run, n_episodes, overrides, commit): run for run in todo}
+    done = 0
+    try:
+        while futures:
+            ready, _ = ray.wait(list(futures), num_returns=1)
+            run = futures.pop(ready[0])
+            try:
+                row = ray.get(ready[0])
+            except Exception as e:  # one failed run must not lose the others
+                logger.error("run %s failed: %s", run, e)
+                continue
+            append_row(csv_path, row, RESULT_COLUMNS)
+            done += 1
+            logger.info("[%d/%d] %s %s N=%d seed=%d: %.1f", done, len(todo), run.algo, run.env, run.n_trajectories,
+                        run.seed, row["mean_return"])
+    finally:
+        ray.shutdown()
+    return done
