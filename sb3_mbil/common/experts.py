@@ -141,12 +141,22 @@ def load_hub_expert(env_id: str, algo: str, org: str = "sb3", online: bool | Non
 
     model_name = ModelName(algo, env_id)
     repo_id = str(ModelRepoId(org, model_name))
+    offline_flag = os.environ.get("HF_HUB_OFFLINE", "0").lower() in ("1", "true", "yes", "on")
     online = hub_reachable() if online is None else online
     try:
-        if online:
-            os.environ.setdefault("TRUST_REMOTE_CODE", "True")  # SB3 zips are pickles: the RL Zoo's own agents
-            model_path = load_from_hub(repo_id, model_name.filename)
-        else:
+        if online or offline_flag:
+            # huggingface_sb3 reads the hub, or with HF_HUB_OFFLINE=1 the local hub cache. It refuses to
+            # unpickle a model unless TRUST_REMOTE_CODE is set: these are the RL Zoo's own agents.
+            previous = os.environ.get("TRUST_REMOTE_CODE")
+            os.environ["TRUST_REMOTE_CODE"] = "True"
+            try:
+                model_path = load_from_hub(repo_id, model_name.filename)
+            finally:
+                if previous is None:
+                    del os.environ["TRUST_REMOTE_CODE"]
+                else:
+                    os.environ["TRUST_REMOTE_CODE"] = previous
+        else:  # unreachable without the flag: read the cache without waiting for the network
             model_path = hf_hub_download(repo_id, model_name.filename, local_files_only=True)
     except Exception as e:
         raise LookupError(f"{repo_id} is not reachable on the Hugging Face Hub nor in its local cache ({type(e).__name__})") from e
