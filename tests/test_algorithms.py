@@ -171,3 +171,14 @@ def test_gaussian_log_prob_is_a_density_in_raw_units(data):
     with th.no_grad():
         dens = model.policy.log_prob(obs.expand(len(grid), 3), grid).exp()
     assert abs(th.trapezoid(dens, grid.view(-1)).item() - 1.0) < 1e-3
+
+
+def test_importing_the_flows_keeps_torch_distribution_validation():
+    """zuko switches torch.distributions argument validation off process-wide when imported; we restore it."""
+    import subprocess
+    import sys
+
+    code = ("import torch; before = torch.distributions.Distribution._validate_args; import sb3_mbil; "
+            "print(before, torch.distributions.Distribution._validate_args)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["True", "True"], out.stderr
