@@ -40,7 +40,26 @@ class _SpacesEnv(gym.Env):
         return self._s, 0.0, False, False, {}
 
 
-class LinearGaussianMDP:
+class _MDP:
+    action_dtype = np.float32
+
+    def trajectories(self, n: int, length: int, seed: int):
+        """n expert trajectories of ``length`` steps, s_0 ~ N(0, I)."""
+        rng = np.random.default_rng(seed)
+        out = []
+        for _ in range(n):
+            s = rng.normal(size=2)
+            obs, acts = [s], []
+            for _ in range(length):
+                a = self.expert_action(s, rng)
+                s = self.step(s, a, rng)
+                obs.append(s)
+                acts.append(a)
+            out.append((np.array(obs, dtype=np.float32), np.array(acts, dtype=self.action_dtype)))
+        return out
+
+
+class LinearGaussianMDP(_MDP):
     A = np.array([[0.9, 0.2], [-0.2, 0.8]])
     B = np.array([[0.0], [0.6]])
     K = np.array([[0.3, -0.6]])
@@ -65,22 +84,10 @@ class LinearGaussianMDP:
     def log_pi(self, s, a):
         return _normal_logpdf(a.reshape(len(a), -1), s @ self.K.T, self.sigma_a)
 
-    def trajectories(self, n: int, length: int, seed: int):
-        rng = np.random.default_rng(seed)
-        out = []
-        for _ in range(n):
-            s = rng.normal(size=2)
-            obs, acts = [s], []
-            for _ in range(length):
-                a = self.expert_action(s, rng)
-                s = self.step(s, a, rng)
-                obs.append(s)
-                acts.append(a)
-            out.append((np.array(obs, dtype=np.float32), np.array(acts, dtype=np.float32)))
-        return out
 
 
-class DiscreteActionMDP:
+class DiscreteActionMDP(_MDP):
+    action_dtype = np.int64
     A = np.array([[0.85, 0.25], [-0.25, 0.85]])
     B = np.array([[0.5, -0.5, 0.0], [0.0, 0.0, 0.6]])
     W = np.array([[2.0, 0.0], [-2.0, 0.5], [0.0, -1.5]])
@@ -106,16 +113,5 @@ class DiscreteActionMDP:
     def log_pi(self, s, a):
         return np.log(self.probs(s)[np.arange(len(s)), a.astype(int).reshape(-1)])
 
-    def trajectories(self, n: int, length: int, seed: int):
-        rng = np.random.default_rng(seed)
-        out = []
-        for _ in range(n):
-            s = rng.normal(size=2)
-            obs, acts = [s], []
-            for _ in range(length):
-                a = int(rng.choice(3, p=self.probs(s)[0]))
-                s = self.step(s, a, rng)
-                obs.append(s)
-                acts.append(a)
-            out.append((np.array(obs, dtype=np.float32), np.array(acts, dtype=np.int64)))
-        return out
+    def expert_action(self, s, rng):
+        return int(rng.choice(3, p=self.probs(s)[0]))
