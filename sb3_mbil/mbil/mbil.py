@@ -1,6 +1,6 @@
 """MBIL: Markov Balance-based Imitation Learning (AAAI 2025), strictly offline.
 
-Update rule (the paper, Eq. 7):
+Update rule (the paper's MBIL objective, arXiv:2408.09125):
 
     min_theta  alpha * E_D[ (log P(s', a' | s, a) - log pi_theta(a' | s') - log T(s' | s, a))^2 ]
              + beta  * L_BC(pi_theta, D)
@@ -284,7 +284,7 @@ class MBIL(OfflineAlgorithm):
         log_pi = self.policy.log_prob_from_heads(heads, actions) if (self.alpha > 0 or self._bc_kind == "nll") else None
         loss = 0.0
         if self.alpha > 0:
-            # Balance residual (Eq. 7): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'); the first two cached.
+            # Balance residual (the paper's objective): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'); the first two cached.
             residual = d["target"][j] - log_pi[n:]
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss

@@ -1,6 +1,6 @@
 """Networks of MBIL: the policy pi_theta and the Markov balance model (the flows P and T).
 
-Markov balance equation of the expert's state-action chain (the paper, Eq. 3):
+Markov balance equation of the expert's state-action chain (the paper, arXiv:2408.09125):
 
     P(s', a' | s, a) = pi_D(a' | s') * T(s' | s, a)
 
