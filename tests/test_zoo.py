@@ -97,14 +97,22 @@ def test_bad_input_stops_with_a_clear_message(tmp_path, extra, message):
 
 @pytest.mark.parametrize("editable", [False, True], ids=["install", "editable"])
 def test_install_ships_the_registration(tmp_path, editable):
-    """`pip install .` and `pip install -e .` put sb3_mbil_zoo.pth in site-packages; uninstall removes it."""
+    """The wheel of `pip install .` and the PEP 660 wheel of `pip install -e .` put sb3_mbil_zoo.pth in
+    site-packages; `pip uninstall` removes it. Built with this interpreter's setuptools and installed
+    without an index: no network."""
     src = tmp_path / "src"
     shutil.copytree(REPO, src, ignore=shutil.ignore_patterns(".git", ".venv", "build", "*.egg-info", "__pycache__", "logs"))
+    hook = "build_editable" if editable else "build_wheel"
+    code = f"from setuptools import build_meta; print(build_meta.{hook}({str(tmp_path / 'dist')!r}))"
+    (tmp_path / "dist").mkdir()
+    built = subprocess.run([sys.executable, "-c", code], cwd=src, capture_output=True, text=True, timeout=600)
+    assert built.returncode == 0, built.stderr[-3000:]
+    wheel = tmp_path / "dist" / built.stdout.strip().splitlines()[-1]
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     py = venv / "bin" / "python"
-    cmd = [str(py), "-m", "pip", "install", "-q", "--no-deps", *(["-e"] if editable else []), str(src)]
-    inst = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    inst = subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
+                          capture_output=True, text=True, timeout=600)
     assert inst.returncode == 0, inst.stderr[-3000:]
     purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                              capture_output=True, text=True).stdout.strip()
