@@ -23,6 +23,7 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 DATA_KEYS = ("expert_pool", "n_expert_trajectories")
+ZOO_DEFAULT_EVAL_FREQ = 25000  # rl_zoo3.train's --eval-freq default
 
 NET_ARCH = {"small": [64, 64], "medium": [256, 256]}
 FLOW_HIDDEN = {"small": [32, 32], "medium": [64, 64], "large": [128, 128]}
@@ -141,6 +142,9 @@ def _patch_experiment_manager(cls) -> None:
             return preprocess(self, hyperparams)
         data_spec = {k: hyperparams.pop(k) for k in DATA_KEYS if k in hyperparams}
         result = preprocess(self, hyperparams)
+        if self.eval_freq == ZOO_DEFAULT_EVAL_FREQ and self.n_timesteps <= ZOO_DEFAULT_EVAL_FREQ:
+            # the zoo's default would never evaluate our (short) runs: evaluate 10 times instead
+            self.eval_freq = max(self.n_timesteps // 10, 1)
         if "expert_data" not in result[0]:
             result[0]["expert_data"] = _expert_data(self.env_name.gym_id, data_spec, self.seed)
         return result

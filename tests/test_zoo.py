@@ -126,3 +126,11 @@ def test_install_ships_the_registration(tmp_path, editable):
         assert (Path(purelib) / "sb3_mbil" / "data" / "CartPole-v1.npz").is_file()
     subprocess.run([str(py), "-m", "pip", "uninstall", "-y", "-q", "sb3_mbil"], check=True, capture_output=True)
     assert not pth.exists()
+
+
+def test_default_eval_freq_evaluates_short_runs(tmp_path):
+    train = run(["-m", "rl_zoo3.train", "--algo", "bc", "--env", "CartPole-v1", "-n", "50", "--eval-episodes", "1",
+                 "--num-threads", "1", "--seed", "0", "-f", "logs"], tmp_path)
+    assert train.returncode == 0, train.stderr[-3000:]
+    assert "Eval num_timesteps=5," in train.stdout and "Eval num_timesteps=50," in train.stdout
+    assert (tmp_path / "logs/bc/CartPole-v1_1/best_model.zip").is_file()
