@@ -12,15 +12,24 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--csv", default="results/classic_control.csv")
     p.add_argument("--out", default="results/classic_control.png")
+    p.add_argument("--markdown", default=None, help="also write the tables to this markdown file")
     a = p.parse_args(argv)
     rows = read_rows(a.csv)
     plot(rows, a.out)
-    print(table(rows))
-    print("\nNormalised score (0 = random, 1 = expert), over all (env, N) cells; 95% stratified bootstrap CIs (rliable):")
+    commits = sorted({r.get("commit", "") for r in rows})
+    lines = [f"Results of {len(rows)} runs from `{a.csv}` (commits: {', '.join(commits)}); mean +- std over seeds "
+             "(number of seeds), each seed the average return of its evaluation episodes.", table(rows),
+             "\nNormalised score (0 = random, 1 = expert), over all (env, N) cells with results for every algorithm; "
+             "95% stratified bootstrap confidence intervals (rliable):\n"]
     for algo, s in aggregate(rows).items():
-        print(f"  {algo}: IQM {s['iqm'][0]:.3f} [{s['iqm'][1]:.3f}, {s['iqm'][2]:.3f}], "
-              f"mean {s['mean'][0]:.3f} [{s['mean'][1]:.3f}, {s['mean'][2]:.3f}]")
-    print(f"\nplot: {a.out}")
+        lines.append(f"- {algo}: IQM {s['iqm'][0]:.3f} [{s['iqm'][1]:.3f}, {s['iqm'][2]:.3f}], "
+                     f"mean {s['mean'][0]:.3f} [{s['mean'][1]:.3f}, {s['mean'][2]:.3f}]")
+    lines.append(f"\nPlot: `{a.out}`; made with `python scripts/plot_results.py --csv {a.csv} --out {a.out}`.")
+    text = "\n".join(lines)
+    print(text)
+    if a.markdown:
+        with open(a.markdown, "w") as f:
+            f.write(text + "\n")
 
 
 if __name__ == "__main__":

@@ -162,3 +162,35 @@ def test_to_imitation_without_imitation_says_how_to_install():
     else:
         converted = to_imitation(load_demonstrations("CartPole-v1").sample(1, seed=0))
         assert type(converted[0]).__module__.startswith("imitation")
+
+
+def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypatch):
+    """An interrupted run (checkpoint + replay buffer, no final model) continues with rl_zoo3's -i."""
+    import json
+
+    from sb3_mbil.common.experts import train_zoo_expert
+
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
+    train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400"
+    run1 = folder / "dqn" / "CartPole-v1_1"
+    assert (run1 / "rl_model_200_steps.zip").is_file() and (run1 / "rl_model_replay_buffer_200_steps.pkl").is_file()
+    # interrupt: as if the session ended after the checkpoint at 200 steps
+    (run1 / "CartPole-v1.zip").unlink()
+    (run1 / "rl_model_400_steps.zip").unlink()
+    expert = train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    run2 = folder / "dqn" / "CartPole-v1_2"
+    assert (run2 / "CartPole-v1.zip").is_file()
+    assert json.loads((folder / "progress.json").read_text())["steps_before"]["CartPole-v1_2"] == 200
+    log = folder.with_suffix(".log").read_text()
+    assert "Loading pretrained agent" in log and "Loading replay buffer" in log
+    assert expert.source == "zoo:dqn seed=0"
+
+
+def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch):
+    from sb3_mbil.common.experts import train_zoo_expert
+
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
+    train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=2000, n_evaluations=10, stop_at_return=-1e9)
+    log = (tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n2000.log").read_text()
+    assert "Stopping: mean return" in log and "at 200 steps" in log

@@ -173,36 +173,140 @@ def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
 
 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
-                     verbose: int = 1) -> Expert:
+                     verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
     seed, n_timesteps) in the cache is reused.
+
+    :param save_freq: checkpoint (model and replay buffer) every this many steps; an interrupted
+        run is then continued from its last checkpoint with rl_zoo3's own continuation (``-i``)
+        instead of starting again. Without it an interrupted run starts from scratch.
+    :param stop_at_return: stop training once the deterministic mean return over 10 episodes
+        reaches this value (checked every ``budget / n_evaluations`` steps); the zoo's step budget
+        stays the upper bound.
     """
     folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
-    run = folder / algo / f"{env_id}_1"
-    if not (run / "best_model.zip").is_file() or not (run / f"{env_id}.zip").is_file():
+    runs_dir = folder / algo
+    progress_file = folder / "progress.json"
+    while not _zoo_finished(runs_dir, env_id):
         budget = n_timesteps or _zoo_budget(env_id, algo)
+        eval_freq = max(budget // n_evaluations, 1)
         cmd = [
             sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env", env_id, "--seed", str(seed),
             "-f", str(folder), "--num-threads", "1", "--vec-env", "dummy",
-            "--eval-freq", str(max(budget // n_evaluations, 1)), "--eval-episodes", "20", "--n-eval-envs", "1",
+            "--eval-freq", str(eval_freq), "--eval-episodes", "20", "--n-eval-envs", "1",
         ]
-        if n_timesteps is not None:
-            cmd += ["-n", str(n_timesteps)]
-        if verbose:
-            logger.info("training the expert locally with rl_zoo3: %s", " ".join(cmd))
-        if folder.exists():  # an interrupted run: start it again from scratch
+        resume = _latest_checkpoint(runs_dir, env_id) if save_freq else None
+        if resume is None and folder.exists():  # interrupted without a checkpoint: start again from scratch
             import shutil
 
             shutil.rmtree(folder)
-        folder.mkdir(parents=True)
-        with open(folder.with_suffix(".log"), "w") as log:
+        folder.mkdir(parents=True, exist_ok=True)
+        progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+        done = 0
+        if resume is not None:
+            ckpt, steps = resume
+            done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+            _prepare_continuation(ckpt, env_id)
+            cmd += ["-i", str(ckpt)]
+        remaining = budget - done
+        if remaining <= 0:
+            break
+        if n_timesteps is not None or resume is not None:
+            cmd += ["-n", str(remaining)]
+        next_run = f"{env_id}_{_run_ids(runs_dir, env_id)[-1] + 1 if _run_ids(runs_dir, env_id) else 1}"
+        callbacks = []
+        if save_freq:  # SB3's CheckpointCallback: model, replay buffer and VecNormalize statistics
+            callbacks.append({"stable_baselines3.common.callbacks.CheckpointCallback": {
+                "save_freq": int(save_freq), "save_path": str(runs_dir / next_run), "name_prefix": "rl_model",
+                "save_replay_buffer": True, "save_vecnormalize": True}})
+            cmd += ["--save-replay-buffer"]
+        if stop_at_return is not None:
+            callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": {
+                "min_return": float(stop_at_return), "eval_freq": eval_freq}})
+        if callbacks:
+            cmd += ["--hyperparams", f"callback:{callbacks!r}"]
+        progress["steps_before"][next_run] = done
+        _write_json(progress_file, progress)
+        if verbose:
+            logger.info("training the expert locally with rl_zoo3: %s", " ".join(cmd))
+        with open(folder.with_suffix(".log"), "a") as log:
             proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
-        if proc.returncode != 0 or not (run / "best_model.zip").is_file():
+        if proc.returncode != 0:
             raise RuntimeError(f"rl_zoo3 training failed (exit {proc.returncode}); see {folder.with_suffix('.log')}")
-    return load_expert_file(run / "best_model.zip", env_id, algo, run / env_id / "vecnormalize.pkl",
+    best = _best_run(runs_dir, env_id)
+    if best is None:
+        raise RuntimeError(f"rl_zoo3 training left no best_model.zip in {runs_dir}; see {folder.with_suffix('.log')}")
+    return load_expert_file(best / "best_model.zip", env_id, algo, best / env_id / "vecnormalize.pkl",
                             source=f"zoo:{algo} seed={seed}")
+
+
+def _run_ids(runs_dir: Path, env_id: str) -> list[int]:
+    ids = []
+    for p in runs_dir.glob(f"{env_id}_*"):
+        suffix = p.name[len(env_id) + 1:]
+        if p.is_dir() and suffix.isdigit():
+            ids.append(int(suffix))
+    return sorted(ids)
+
+
+def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
+    """The latest run saved its final model (budget used up, or stopped at the return threshold)."""
+    ids = _run_ids(runs_dir, env_id)
+    return bool(ids) and (runs_dir / f"{env_id}_{ids[-1]}" / f"{env_id}.zip").is_file()
+
+
+def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
+    for run_id in reversed(_run_ids(runs_dir, env_id)):
+        ckpts = []
+        for p in (runs_dir / f"{env_id}_{run_id}").glob("rl_model_*_steps.zip"):
+            middle = p.stem[len("rl_model_"):-len("_steps")]
+            if middle.isdigit():
+                ckpts.append((int(middle), p))
+        if ckpts:
+            steps, path = max(ckpts)
+            return path, steps
+    return None
+
+
+def _prepare_continuation(ckpt: Path, env_id: str) -> None:
+    """Put the checkpoint's replay buffer and VecNormalize statistics where rl_zoo3's ``-i`` looks for them."""
+    steps = ckpt.stem[len("rl_model_"):-len("_steps")]
+    for source, target in (
+        (ckpt.parent / f"rl_model_replay_buffer_{steps}_steps.pkl", ckpt.parent / "replay_buffer.pkl"),
+        (ckpt.parent / f"rl_model_vecnormalize_{steps}_steps.pkl", ckpt.parent / env_id / "vecnormalize.pkl"),
+    ):
+        if source.is_file():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            tmp = target.with_suffix(".tmp")
+            if tmp.exists() or tmp.is_symlink():
+                tmp.unlink()
+            os.symlink(source.name if target.parent == source.parent else source, tmp)
+            os.replace(tmp, target)
+
+
+def _best_run(runs_dir: Path, env_id: str) -> Path | None:
+    """The run whose EvalCallback saw the highest mean return (its best_model.zip is the expert)."""
+    best, best_score = None, -np.inf
+    for run_id in _run_ids(runs_dir, env_id):
+        run = runs_dir / f"{env_id}_{run_id}"
+        if not (run / "best_model.zip").is_file():
+            continue
+        score = -np.inf
+        if (run / "evaluations.npz").is_file():
+            with np.load(run / "evaluations.npz") as ev:
+                if len(ev["results"]):
+                    score = float(ev["results"].mean(axis=1).max())
+        if best is None or score > best_score:
+            best, best_score = run, score
+    return best
+
+
+def _write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, path)
 
 
 def _zoo_budget(env_id: str, algo: str) -> int:
