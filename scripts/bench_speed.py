@@ -23,7 +23,8 @@ def commit() -> str:
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="LunarLander-v3")
-    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 15])
+    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 3, 7, 10, 15])
+    p.add_argument("--budget", type=int, default=10_000, help="policy updates of a full run (for the total ratio)")
     p.add_argument("--steps", type=int, default=2000, help="policy updates per timing block")
     p.add_argument("--repeats", type=int, default=3, help="interleaved timing blocks (medians reported)")
     p.add_argument("--seed", type=int, default=0)
@@ -32,7 +33,7 @@ def main(argv=None):
     rows = []
     for n in a.n_trajectories:
         demos = load_demonstrations(a.env).sample(n, seed=a.seed)
-        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed), "commit": commit()}
+        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed, budget=a.budget), "commit": commit()}
         rows.append(row)
         print(", ".join(f"{k}={v}" for k, v in row.items()), flush=True)
     if a.out:

@@ -31,7 +31,8 @@ class Run:
 
 
 def make_grid(algos, envs, n_trajectories, seeds) -> list[Run]:
-    return [Run(a, e, int(n), int(s)) for e, n, a, s in itertools.product(envs, n_trajectories, algos, seeds)]
+    """Seed-major order: an interrupted grid has results for every (algo, env, N) cell at fewer seeds."""
+    return [Run(a, e, int(n), int(s)) for s, e, n, a in itertools.product(seeds, envs, n_trajectories, algos)]
 
 
 def git_commit() -> str:
