@@ -64,3 +64,12 @@ def test_unknown_env_is_refused():
 
     with pytest.raises(ValueError, match="expected an entry for Pendulum-v1"):
         tuned_settings("mbil", "Pendulum-v1")
+
+
+def test_append_keeps_an_existing_header(tmp_path):
+    from sb3_mbil.benchmark.results import append_row
+
+    out = tmp_path / "r.csv"
+    append_row(out, {"a": 1, "b": 2}, ["a", "b"])
+    append_row(out, {"a": 3, "b": 4, "c": 5}, ["a", "b", "c"])
+    assert rows_of(out) == [{"a": "1", "b": "2"}, {"a": "3", "b": "4"}]

@@ -15,6 +15,8 @@ import numpy as np
 RESULT_COLUMNS = [
     "algo", "env", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "train_seconds",
     "flow_fit_seconds", "gradient_steps", "settings", "commit",
+    # MBIL diagnostics: mean balance target (log P - log T), held-out log-likelihoods, chosen noise
+    "target_mean", "p_heldout_ll", "transition_heldout_ll", "next_action_noise",
 ]
 KEY_COLUMNS = ("algo", "env", "n_trajectories", "seed")
 
@@ -83,6 +85,14 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     train_seconds = time.perf_counter() - t0
     returns = evaluate(model, run.env, n_episodes, seed=1_000_000 + run.seed, n_envs=n_eval_envs)
     report = getattr(model, "flow_report", None) or {}
+    diagnostics = {}
+    if report:
+        diagnostics = {
+            "target_mean": round(float(model._data["target"].mean()), 4),
+            "p_heldout_ll": round(report["p_heldout_ll"], 4),
+            "transition_heldout_ll": round(report["transition_heldout_ll"], 4),
+            "next_action_noise": report["next_action"]["noise"],
+        }
     return {
         **asdict(run),
         "mean_return": float(np.mean(returns)),
@@ -93,4 +103,5 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
         "gradient_steps": steps,
         "settings": repr(sorted({**settings, "n_timesteps": steps}.items())),
         "commit": commit or git_commit(),
+        **diagnostics,
     }

@@ -18,16 +18,22 @@ def finished_keys(path: str | os.PathLike, key_columns: tuple[str, ...]) -> set[
 
 
 def append_row(path: str | os.PathLike, row: dict, columns: list[str]) -> None:
-    """Append one complete line under an exclusive lock (header first if the file is new)."""
+    """Append one complete line under an exclusive lock (header first if the file is new).
+
+    An existing file keeps its own header: columns it lacks are left out of the new line.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    line = {c: row.get(c, "") for c in columns}
-    with open(path, "a", newline="") as f:
+    with open(path, "a+", newline="") as f:
         fcntl.flock(f, fcntl.LOCK_EX)
         try:
             if f.tell() == 0:
                 csv.writer(f).writerow(columns)
-            csv.DictWriter(f, fieldnames=columns).writerow(line)
+            else:
+                f.seek(0)
+                columns = next(csv.reader(f))
+                f.seek(0, os.SEEK_END)
+            csv.DictWriter(f, fieldnames=columns, extrasaction="ignore").writerow({c: row.get(c, "") for c in columns})
             f.flush()
             os.fsync(f.fileno())
         finally:
