@@ -9,3 +9,4 @@ python scripts/benchmark.py --algos bc mbil $COMMON --csv results/tuning/default
 python scripts/benchmark.py --algos mbil $COMMON --csv results/tuning/mbil_alpha0.1.csv --overrides '{"mbil": {"alpha": 0.1}}'
 python scripts/benchmark.py --algos mbil $COMMON --csv results/tuning/mbil_alpha10.csv --overrides '{"mbil": {"alpha": 10.0}}'
 python scripts/benchmark.py --algos bc $COMMON --csv results/tuning/bc_wd1e-3.csv --overrides '{"bc": {"weight_decay": 0.001}}'
+python scripts/benchmark.py --algos mbil $COMMON --csv results/tuning/mbil_wd1e-3.csv --overrides '{"mbil": {"weight_decay": 0.001}}'
