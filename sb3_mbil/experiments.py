@@ -2,49 +2,34 @@
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
-import numpy as np
-import torch as th
-
 from sb3_mbil.common.demonstrations import load_demonstrations
-from sb3_mbil.common.evaluation import evaluate
 
 
 def compare(
     env_id: str,
     n_trajectories: int = 1,
     seed: int = 0,
-    steps: int = 10_000,
-    eval_episodes: int = 100,
+    eval_episodes: int = 300,
     algos: tuple[str, ...] = ("mbil", "bc"),
-    hyperparams: dict[str, dict[str, Any]] | None = None,
-    pool: str | None = None,
+    steps: int | None = None,
 ) -> dict[str, Any]:
-    """Draw ``n_trajectories`` from the env's expert pool with ``seed``, train each algorithm on them, evaluate.
+    """Draw ``n_trajectories`` from the env's expert pool with ``seed``, train each algorithm on them with its
+    settings from ``zoo_hyperparams/`` and evaluate it: one benchmark run per algorithm (the same code as the grid).
 
-    Every algorithm gets the same full trajectories.
+    Every algorithm gets the same full trajectories. ``steps`` overrides the settings' gradient steps.
     """
-    from sb3_mbil import ALGORITHMS
+    from sb3_mbil.benchmark.grid import Run, run_one
 
-    th.set_num_threads(1)
-    demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
-    out: dict[str, Any] = {
+    pool = load_demonstrations(env_id)
+    demos = pool.sample(n_trajectories, seed=seed)
+    overrides = {a: {"n_timesteps": steps} for a in algos} if steps else None
+    return {
         "env": env_id,
         "n_trajectories": n_trajectories,
         "seed": seed,
-        "expert_pool_mean_return": float(load_demonstrations(pool or env_id).episode_returns.mean()),
+        "expert_pool_mean_return": float(pool.episode_returns.mean()),
         "data_mean_return": float(demos.episode_returns.mean()),
-        "results": {},
+        "results": {a: run_one(Run(a, env_id, n_trajectories, seed), eval_episodes, overrides) for a in algos},
     }
-    for name in algos:
-        kwargs = dict((hyperparams or {}).get(name, {}))
-        t0 = time.process_time()
-        model = ALGORITHMS[name]("MlpPolicy", env_id, expert_data=demos, seed=seed, **kwargs)
-        model.learn(steps)
-        seconds = time.process_time() - t0
-        returns = evaluate(model, env_id, eval_episodes, seed=10_000 + seed)
-        out["results"][name] = {"mean_return": float(np.mean(returns)), "std_return": float(np.std(returns)),
-                                "train_cpu_seconds": round(seconds, 1)}
-    return out

@@ -73,3 +73,15 @@ def test_append_keeps_an_existing_header(tmp_path):
     append_row(out, {"a": 1, "b": 2}, ["a", "b"])
     append_row(out, {"a": 3, "b": 4, "c": 5}, ["a", "b", "c"])
     assert rows_of(out) == [{"a": "1", "b": "2"}, {"a": "3", "b": "4"}]
+
+
+def test_main_job_script_runs(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, "scripts/compare.py", "--env", "CartPole-v1", "--algos", "bc", "--steps", "20",
+                          "--eval-episodes", "2"], cwd=repo, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "expert" in out.stdout and "bc" in out.stdout and "20 gradient steps" in out.stdout
