@@ -85,3 +85,19 @@ def test_main_job_script_runs(tmp_path):
                           "--eval-episodes", "2"], cwd=repo, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "expert" in out.stdout and "bc" in out.stdout and "20 gradient steps" in out.stdout
+
+
+def test_learning_curves_resume(tmp_path):
+    from sb3_mbil.benchmark.curves import ABLATION_VARIANTS, curve_summary, run_curves
+
+    out = tmp_path / "curves.csv"
+    variants = {"bc": ("bc", {}), "mbil_a1_b0": ("mbil", {**ABLATION_VARIANTS["mbil_a1_b0"][1], **TINY["mbil"]})}
+    variants["mbil_a1_b0"][1].pop("n_timesteps")
+    n = run_curves(variants, ["CartPole-v1"], [0], str(out), n_updates=40, eval_every=20, n_episodes=2, use_ray=False)
+    assert n == 2
+    rows = rows_of(out)
+    assert sorted((r["algo"], r["gradient_step"]) for r in rows) == [("bc", "20"), ("bc", "40"), ("mbil_a1_b0", "20"),
+                                                                     ("mbil_a1_b0", "40")]
+    assert run_curves(variants, ["CartPole-v1"], [0], str(out), n_updates=40, eval_every=20, n_episodes=2, use_ray=False) == 0
+    summary = curve_summary(rows)
+    assert summary[("bc", "CartPole-v1", 40)][2] == 1

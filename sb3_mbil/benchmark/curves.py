@@ -1,0 +1,157 @@
+"""Learning curves (the paper's Figure 4 and 5 protocol): evaluate every ``eval_every`` gradient updates.
+
+One run = (variant, env, seed): train a variant (an algorithm plus settings) on N expert
+trajectories and score its deterministic policy on ``n_episodes`` episodes every ``eval_every``
+gradient updates. All rows of a run are appended at once when it finishes, so an interrupted set of
+runs resumes by skipping finished (variant, env, seed).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+
+from sb3_mbil.benchmark.grid import git_commit, tuned_settings
+from sb3_mbil.benchmark.results import append_row, finished_keys
+
+CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit"]
+CURVE_KEY = ("algo", "env", "seed")
+
+# Figure 4: MBIL (MSE BC term, Gaussian policy) against BC with MSE, with and without weight decay.
+FIGURE4_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
+    "mbil": ("mbil", {"bc_loss": "mse"}),
+    "bc": ("bc", {"bc_loss": "mse", "weight_decay": 0.0}),
+    "bc_wd1e-3": ("bc", {"bc_loss": "mse", "weight_decay": 1e-3}),
+}
+# Figure 5: the (alpha, beta) ablation.
+ABLATION_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
+    f"mbil_a{a:g}_b{b:g}": ("mbil", {"alpha": a, "beta": b}) for a, b in ((1, 0), (0, 1), (1, 0.001), (0.001, 1))
+}
+
+
+@dataclass(frozen=True)
+class CurveRun:
+    variant: str
+    env: str
+    seed: int
+
+    def key(self) -> tuple[str, ...]:
+        return (self.variant, self.env, str(self.seed))
+
+
+class _Scorer(BaseCallback):
+    def __init__(self, env_id: str, every: int, n_episodes: int, seed: int):
+        super().__init__()
+        self.env_id, self.every, self.n_episodes, self.seed = env_id, every, n_episodes, seed
+        self.points: list[tuple[int, float]] = []
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps % self.every == 0:
+            from sb3_mbil.common.evaluation import evaluate
+
+            returns = evaluate(self.model, self.env_id, self.n_episodes, seed=self.seed + self.num_timesteps, n_envs=self.n_episodes)
+            self.points.append((self.num_timesteps, float(np.mean(returns))))
+        return True
+
+
+def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_updates: int, eval_every: int = 500,
+              n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None, commit: str | None = None,
+              extra_settings: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Train one variant and return one row per evaluation point."""
+    import torch as th
+
+    from sb3_mbil import ALGORITHMS, load_demonstrations
+
+    th.set_num_threads(1)
+    algo, variant_settings = variants[run.variant]
+    settings = tuned_settings(algo, run.env, {**variant_settings, **(extra_settings or {})})
+    settings.pop("n_timesteps", None)
+    demos = load_demonstrations(pool or run.env).sample(n_trajectories, seed=run.seed)
+    model = ALGORITHMS[algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
+    scorer = _Scorer(run.env, eval_every, n_episodes, seed=1_000_000 + 1000 * run.seed)
+    model.learn(n_updates, callback=scorer)
+    commit = commit or git_commit()
+    base = {"algo": run.variant, "env": run.env, "seed": run.seed, "n_episodes": n_episodes,
+            "n_trajectories": n_trajectories, "settings": repr(sorted({"algo": algo, **settings}.items())), "commit": commit}
+    return [{**base, "gradient_step": step, "mean_return": ret} for step, ret in scorer.points]
+
+
+def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv_path: str, n_updates: int,
+               eval_every: int = 500, n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None,
+               use_ray: bool = True, address: str | None = None, num_cpus: int | None = None,
+               extra_settings: dict[str, Any] | None = None) -> int:
+    """All (variant, env, seed) runs not yet in the CSV; on Ray unless ``use_ray`` is False."""
+    done = finished_keys(csv_path, CURVE_KEY)
+    todo = [CurveRun(v, e, int(s)) for s, e, v in itertools.product(seeds, envs, variants) if CurveRun(v, e, int(s)).key() not in done]
+    commit = git_commit()
+    args = (variants, n_updates, eval_every, n_episodes, n_trajectories, pool, commit, extra_settings)
+    if not use_ray:
+        for run in todo:
+            for row in run_curve(run, *args):
+                append_row(csv_path, row, CURVE_COLUMNS)
+        return len(todo)
+    import ray
+
+    if address:
+        ray.init(address=address)
+    else:
+        ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
+                 runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
+    task = ray.remote(num_cpus=1, max_retries=1)(run_curve)
+    futures = {task.remote(run, *args): run for run in todo}
+    n = 0
+    try:
+        while futures:
+            ready, _ = ray.wait(list(futures), num_returns=1)
+            futures.pop(ready[0])
+            for row in ray.get(ready[0]):
+                append_row(csv_path, row, CURVE_COLUMNS)
+            n += 1
+    finally:
+        ray.shutdown()
+    return n
+
+
+def curve_summary(rows: list[dict]) -> dict[tuple[str, str, int], tuple[float, float, int]]:
+    """(variant, env, gradient_step) -> (mean over seeds, std over seeds, number of seeds)."""
+    groups: dict[tuple[str, str, int], list[float]] = {}
+    for r in rows:
+        groups.setdefault((r["algo"], r["env"], int(r["gradient_step"])), []).append(float(r["mean_return"]))
+    return {k: (float(np.mean(v)), float(np.std(v)), len(v)) for k, v in groups.items()}
+
+
+__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "run_curve", "run_curves"]
+
+
+def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None) -> None:
+    """The Figure 4 layout: mean return vs gradient updates per env, a band of one std over seeds, the expert as a line."""
+    import os
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = curve_summary(rows)
+    envs = sorted({k[1] for k in summary})
+    fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 4), squeeze=False)
+    for ax, env in zip(axes[0], envs):
+        for variant in sorted({k[0] for k in summary if k[1] == env}):
+            steps = sorted(k[2] for k in summary if k[0] == variant and k[1] == env)
+            m = np.array([summary[(variant, env, s)][0] for s in steps])
+            sd = np.array([summary[(variant, env, s)][1] for s in steps])
+            ax.plot(steps, m, label=variant)
+            ax.fill_between(steps, m - sd, m + sd, alpha=0.2)
+        if expert and env in expert:
+            ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
+        ax.set_title(env)
+        ax.set_xlabel("gradient updates")
+        ax.set_ylabel("average return")
+    axes[0][0].legend()
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    fig.savefig(path, dpi=120)

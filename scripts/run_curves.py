@@ -1,0 +1,53 @@
+"""Learning curves with one expert trajectory: Figure 4 (MBIL vs BC with and without weight decay) or the
+Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates on --episodes episodes.
+
+    python scripts/run_curves.py --figure 4 --envs Hopper-v4 Walker2d-v4 --seeds 0-4 --updates 100000 \\
+        --csv results/mujoco.csv --plot results/mujoco.png
+    python scripts/run_curves.py --figure 5 --envs Walker2d-v4 --seeds 0-4 --updates 100000 \\
+        --csv results/ablation.csv --plot results/ablation.png
+"""
+
+import argparse
+import csv
+
+
+def seeds(text):
+    out = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
+    return out
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--figure", choices=["4", "5"], default="4")
+    p.add_argument("--envs", nargs="+", required=True)
+    p.add_argument("--seeds", type=seeds, default=list(range(5)))
+    p.add_argument("--updates", type=int, required=True, help="gradient updates per run")
+    p.add_argument("--eval-every", type=int, default=500)
+    p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--n-trajectories", type=int, default=1)
+    p.add_argument("--csv", required=True)
+    p.add_argument("--plot", default=None)
+    p.add_argument("--address", default=None, help="Ray cluster address (default: local Ray)")
+    p.add_argument("--num-cpus", type=int, default=None)
+    p.add_argument("--local", action="store_true", help="without Ray")
+    a = p.parse_args(argv)
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.benchmark.curves import ABLATION_VARIANTS, FIGURE4_VARIANTS, plot_curves, run_curves
+
+    variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
+    n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories,
+                   use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
+    print(f"{n} runs done now; results in {a.csv}")
+    if a.plot:
+        with open(a.csv, newline="") as f:
+            rows = list(csv.DictReader(f))
+        expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in a.envs}
+        plot_curves(rows, a.plot, expert)
+        print(f"plot: {a.plot}")
+
+
+if __name__ == "__main__":
+    main()
