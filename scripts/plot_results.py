@@ -5,7 +5,7 @@
 
 import argparse
 
-from sb3_mbil.benchmark.report import aggregate, plot, read_rows, table
+from sb3_mbil.benchmark.report import aggregate, paired, plot, read_rows, table
 
 
 def main(argv=None):
@@ -18,7 +18,7 @@ def main(argv=None):
     plot(rows, a.out)
     commits = sorted({r.get("commit", "") for r in rows})
     lines = [f"Results of {len(rows)} runs from `{a.csv}` (commits: {', '.join(commits)}); mean +- std over seeds "
-             "(number of seeds), each seed the average return of its evaluation episodes.", table(rows),
+             "(number of seeds), each seed the average return of its evaluation episodes.", table(rows), paired(rows),
              "\nNormalised score (0 = random, 1 = expert), over all (env, N) cells with results for every algorithm; "
              "95% stratified bootstrap confidence intervals (rliable):\n"]
     for algo, s in aggregate(rows).items():

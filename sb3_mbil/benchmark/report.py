@@ -127,3 +127,21 @@ def plot(rows, path: str) -> None:
     fig.tight_layout()
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     fig.savefig(path, dpi=120)
+
+
+def paired(rows, a: str = "mbil", b: str = "bc") -> str:
+    """Per (env, N): on how many seeds ``a`` scored below ``b`` (the same trajectories, the same seed)."""
+    runs = defaultdict(dict)
+    for r in rows:
+        runs[(r["env"], r["n_trajectories"], r["seed"])][r["algo"]] = r["mean_return"]
+    cells = sorted({(e, n) for (e, n, _) in runs})
+    ns = sorted({n for _, n in cells})
+    lines = [f"\nSeeds on which {a} scored below {b} (paired: same trajectories, same seed), of the seeds with both:\n",
+             "| env | " + " | ".join(f"N={n}" for n in ns) + " |", "|---|" + "---|" * len(ns)]
+    for env in sorted({e for e, _ in cells}):
+        cells_env = []
+        for n in ns:
+            pairs = [(v[a], v[b]) for (e, nn, _), v in runs.items() if e == env and nn == n and a in v and b in v]
+            cells_env.append(f"{sum(x < y for x, y in pairs)} of {len(pairs)}" if pairs else "")
+        lines.append(f"| {env} | " + " | ".join(cells_env) + " |")
+    return "\n".join(lines)
