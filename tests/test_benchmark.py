@@ -51,6 +51,9 @@ def test_report(tmp_path):
     rows = read_rows(str(out))
     text = table(rows)
     assert "| mbil |" in text and "published best" in text
+    from sb3_mbil.benchmark.report import paired
+
+    assert "| CartPole-v1 | 0 of 3 | 0 of 3 |" in paired(rows)
     agg = aggregate(rows, reps=200)
     assert agg["mbil"]["mean"][0] > agg["bc"]["mean"][0]
     lo, hi = agg["mbil"]["iqm"][1], agg["mbil"]["iqm"][2]
