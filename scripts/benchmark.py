@@ -11,13 +11,7 @@ import argparse
 import json
 import logging
 
-
-def seeds(text):
-    out = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
-    return out
+from sb3_mbil.benchmark.cli import parse_seeds
 
 
 def main(argv=None):
@@ -25,7 +19,7 @@ def main(argv=None):
     p.add_argument("--algos", nargs="+", default=["mbil", "bc"])
     p.add_argument("--envs", nargs="+", default=["CartPole-v1", "Acrobot-v1", "LunarLander-v3"])
     p.add_argument("--n-trajectories", nargs="+", type=int, default=[1, 3, 7, 10, 15])
-    p.add_argument("--seeds", type=seeds, default=list(range(10)), help="e.g. 0-9 or 0,3,5")
+    p.add_argument("--seeds", type=parse_seeds, default=list(range(10)), help="e.g. 0-9 or 0,3,5")
     p.add_argument("--episodes", type=int, default=300)
     p.add_argument("--csv", default="results/classic_control.csv")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')

@@ -10,20 +10,14 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 import argparse
 import csv
 
-
-def seeds(text):
-    out = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
-    return out
+from sb3_mbil.benchmark.cli import parse_seeds
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--figure", choices=["4", "5"], default="4")
     p.add_argument("--envs", nargs="+", required=True)
-    p.add_argument("--seeds", type=seeds, default=list(range(5)))
+    p.add_argument("--seeds", type=parse_seeds, default=list(range(5)))
     p.add_argument("--updates", type=int, required=True, help="gradient updates per run")
     p.add_argument("--eval-every", type=int, default=500)
     p.add_argument("--episodes", type=int, default=10)

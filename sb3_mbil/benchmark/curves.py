@@ -129,12 +129,12 @@ __all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun",
 
 def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None) -> None:
     """The Figure 4 layout: mean return vs gradient updates per env, a band of one std over seeds, the expert as a line."""
-    import os
-
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from sb3_mbil.benchmark.report import finish_figure
 
     summary = curve_summary(rows)
     envs = sorted({k[1] for k in summary})
@@ -148,10 +148,4 @@ def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = N
             ax.fill_between(steps, m - sd, m + sd, alpha=0.2)
         if expert and env in expert:
             ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
-        ax.set_title(env)
-        ax.set_xlabel("gradient updates")
-        ax.set_ylabel("average return")
-    axes[0][0].legend()
-    fig.tight_layout()
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    fig.savefig(path, dpi=120)
+    finish_figure(fig, axes, envs, "gradient updates", path)

@@ -120,8 +120,14 @@ def plot(rows, path: str) -> None:
         ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
         if env in RANDOM_RETURN:
             ax.axhline(RANDOM_RETURN[env], color="gray", ls=":", lw=1, label="random")
+    finish_figure(fig, axes, envs, "expert trajectories", path)
+
+
+def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
+    """Titles, labels, legend; write the figure to ``path``."""
+    for ax, env in zip(axes[0], envs):
         ax.set_title(env)
-        ax.set_xlabel("expert trajectories")
+        ax.set_xlabel(xlabel)
         ax.set_ylabel("average return")
     axes[0][0].legend()
     fig.tight_layout()
