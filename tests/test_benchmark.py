@@ -69,6 +69,18 @@ def test_unknown_env_is_refused():
         tuned_settings("mbil", "Pendulum-v1")
 
 
+@pytest.mark.parametrize("algo", ["mbil", "bc"])
+def test_every_expert_env_has_tuned_settings(algo):
+    from sb3_mbil.benchmark.grid import tuned_settings
+    from sb3_mbil.common.experts import EXPERTS
+
+    for env in EXPERTS:
+        settings = tuned_settings(algo, env)
+        assert isinstance(settings.get("policy_kwargs", {}), dict)  # the zoo's string form, evaluated
+    assert tuned_settings(algo, "Walker2d-v4")["policy_kwargs"] == {"net_arch": [256, 256]}
+    assert tuned_settings(algo, "Walker2d-v4")["bc_loss"] == "mse"
+
+
 def test_append_keeps_an_existing_header(tmp_path):
     from sb3_mbil.benchmark.results import append_row
 
