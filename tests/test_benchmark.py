@@ -116,3 +116,13 @@ def test_learning_curves_resume(tmp_path):
     assert run_curves(variants, ["CartPole-v1"], [0], str(out), n_updates=40, eval_every=20, n_episodes=2, use_ray=False) == 0
     summary = curve_summary(rows)
     assert summary[("bc", "CartPole-v1", 40)][2] == 1
+
+
+def test_curve_table_reports_final_return_and_late_drop():
+    from sb3_mbil.benchmark.curves import curve_table
+
+    rows = [{"env": "E", "algo": "bc", "seed": s, "gradient_step": step, "mean_return": ret}
+            for s in (0, 1) for step, ret in ((500, 100.0), (1000, 900.0 + s), (1500, 300.0), (2000, 100.0 - s))]
+    text = curve_table(rows, {"E": 1000.0}, last=2)
+    # final: seed 0 (300 + 100) / 2 = 200, seed 1 (300 + 99) / 2 = 199.5; best point 900.5 at 1000 updates
+    assert "| E | bc | 200 +- 0 | 0.20 | 900 (1000) | -701 | 2 | 2000 |" in text
