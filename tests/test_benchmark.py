@@ -8,6 +8,7 @@ from sb3_mbil.benchmark import RESULT_COLUMNS, Run, make_grid
 from sb3_mbil.benchmark.report import aggregate, plot, read_rows, table
 from sb3_mbil.benchmark.runner import pending, run_local, run_ray
 
+TINY_FLOWS = {"flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]}
 TINY = {"mbil": {"n_timesteps": 20, "flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]},
         "bc": {"n_timesteps": 20}}
 
@@ -126,3 +127,14 @@ def test_curve_table_reports_final_return_and_late_drop():
     text = curve_table(rows, {"E": 1000.0}, last=2)
     # final: seed 0 (300 + 100) / 2 = 200, seed 1 (300 + 99) / 2 = 199.5; best point 900.5 at 1000 updates
     assert "| E | bc | 200 +- 0 | 0.20 | 900 (1000) | -701 | 2 | 2000 |" in text
+
+
+def test_measure_speed_reports_fit_and_update_times(cartpole_data):
+    from sb3_mbil.speed import measure_speed
+
+    r = measure_speed("CartPole-v1", cartpole_data, steps=200, repeats=1, budget=1000, mbil_kwargs=TINY_FLOWS)
+    assert r["n_tuples"] > 0 and r["steps"] == 200
+    assert r["flow_fit_seconds"] > 0 and r["transition_fit_cpu_seconds"] > 0 and r["next_action_fit_cpu_seconds"] > 0
+    expected = (r["flow_fit_seconds"] + r["mbil_policy_seconds"] * 5) / (r["bc_seconds"] * 5)  # budget = 5 blocks
+    assert r["total_ratio"] == pytest.approx(expected, rel=0.05)
+    assert r["policy_update_ratio"] == pytest.approx(r["mbil_policy_seconds"] / r["bc_seconds"], rel=0.05)
