@@ -38,6 +38,9 @@ def measure_speed(env_id: str, expert_data: ExpertData, steps: int = 2000, repea
         "n_tuples": mbil.flow_report["n_tuples"],
         "steps": steps,
         "flow_fit_seconds": round(fit, 2),
+        # CPU seconds of each model's fit (noise levels tried, early stopping, refit): where the fitting time goes
+        "transition_fit_cpu_seconds": round(mbil.flow_report["transition"]["seconds"], 2),
+        "next_action_fit_cpu_seconds": round(mbil.flow_report["next_action"]["seconds"], 2),
         "mbil_policy_seconds": round(mbil_s, 3),
         "bc_seconds": round(bc_s, 3),
         "mbil_ms_per_update": round(1000 * mbil_s / steps, 4),

@@ -28,8 +28,9 @@ def main(argv=None):
     text = "\n".join(lines)
     print(text)
     if a.markdown:
-        with open(a.markdown, "w") as f:
-            f.write(text + "\n")
+        from sb3_mbil.benchmark.results import write_text
+
+        write_text(a.markdown, text + "\n")
 
 
 if __name__ == "__main__":

@@ -24,21 +24,28 @@ def main(argv=None):
     p.add_argument("--n-trajectories", type=int, default=1)
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
+    p.add_argument("--markdown", default=None, help="also write the summary table (final return, drop from the best) here")
     p.add_argument("--address", default=None, help="Ray cluster address (default: local Ray)")
     p.add_argument("--num-cpus", type=int, default=None)
     p.add_argument("--local", action="store_true", help="without Ray")
     a = p.parse_args(argv)
     from sb3_mbil import load_demonstrations
-    from sb3_mbil.benchmark.curves import ABLATION_VARIANTS, FIGURE4_VARIANTS, plot_curves, run_curves
+    from sb3_mbil.benchmark.curves import ABLATION_VARIANTS, FIGURE4_VARIANTS, curve_table, plot_curves, run_curves
+    from sb3_mbil.benchmark.results import write_text
 
     variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
     n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories,
                    use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
     print(f"{n} runs done now; results in {a.csv}")
+    with open(a.csv, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["env"] in a.envs and r["algo"] in variants]
+    expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in a.envs}
+    text = (f"Results from `{a.csv}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}); expert = mean return of "
+            f"the pool.\n\n" + curve_table(rows, expert))
+    print(text)
+    if a.markdown:
+        write_text(a.markdown, text + "\n")
     if a.plot:
-        with open(a.csv, newline="") as f:
-            rows = list(csv.DictReader(f))
-        expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in a.envs}
         plot_curves(rows, a.plot, expert)
         print(f"plot: {a.plot}")
 

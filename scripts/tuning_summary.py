@@ -1,5 +1,6 @@
-"""Summarise the tuning CSVs (seeds 100-102): mean return per (env, N) for each setting, and the mean
-normalised score over those cells.
+"""Summarise the tuning CSVs (seeds 100 and up): mean return per (env, N) for each setting, the mean
+normalised score over those cells, and, for cells tuned on 10 or more seeds, the paired differences
+(same seed, so the same trajectories) of every setting against the cell's best.
 
     python scripts/tuning_summary.py results/tuning/*.csv
 """
@@ -10,14 +11,20 @@ import numpy as np
 
 from sb3_mbil.benchmark.report import RANDOM_RETURN, expert_returns, grouped, read_rows
 
+PAIRED_MIN_SEEDS = 10
+
 
 def main(paths):
-    cells, table = set(), {}
+    cells, table, by_seed = set(), {}, {}
     for path in paths:
-        g = grouped(read_rows(path))
+        rows = read_rows(path)
+        g = grouped(rows)
         for (algo, env, n), v in g.items():
             table[(f"{algo} [{path.split('/')[-1][:-4]}]", env, n)] = v
             cells.add((env, n))
+        for r in rows:
+            setting = f"{r['algo']} [{path.split('/')[-1][:-4]}]"
+            by_seed.setdefault((setting, r["env"], r["n_trajectories"]), {})[r["seed"]] = r["mean_return"]
     cells = sorted(cells)
     expert = expert_returns(sorted({e for e, _ in cells}))
     print("| setting | " + " | ".join(f"{e} N={n}" for e, n in cells) + " | normalised mean |")
@@ -27,6 +34,21 @@ def main(paths):
         norm = [np.mean((v - RANDOM_RETURN[e]) / (expert[e] - RANDOM_RETURN[e])) for v, (e, _) in zip(vals, cells) if v is not None]
         print(f"| {setting} | " + " | ".join("" if v is None else f"{v.mean():.1f} ({len(v)})" for v in vals)
               + f" | {np.mean(norm):.3f} |")
+    for env, n in cells:
+        runs = {k[0]: v for k, v in by_seed.items() if k[1:] == (env, n) and len(v) >= PAIRED_MIN_SEEDS}
+        if len(runs) < 2:
+            continue
+        best = max(runs, key=lambda k: np.mean(list(runs[k].values())))
+        print(f"\n{env} N={n}, paired against the best mean, {best} (difference of mean returns on the shared seeds, "
+              "mean +- standard error; on how many seeds below):\n")
+        print("| setting | seeds | mean return | difference | below |")
+        print("|---|---|---|---|---|")
+        for setting in sorted(runs):
+            seeds = sorted(set(runs[setting]) & set(runs[best]))
+            d = np.array([runs[setting][s] - runs[best][s] for s in seeds])
+            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+            print(f"| {setting} | {len(seeds)} | {np.mean([runs[setting][s] for s in seeds]):.1f} | {d.mean():.1f} +- {se:.1f} | "
+                  f"{int((d < 0).sum())} of {len(d)} |")
 
 
 if __name__ == "__main__":

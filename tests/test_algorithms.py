@@ -111,6 +111,20 @@ def test_same_seed_same_result(algo, env_id, data):
     assert any(not th.equal(params(a)[k], params(c)[k]) for k in params(a) if k.startswith("policy."))
 
 
+@pytest.mark.parametrize("env_id", ENVS)
+def test_transition_fit_never_changes_the_policy(env_id, data):
+    # T cancels from the balance target and its fit draws its own random numbers: how T is
+    # fitted changes T, never P(a' | s, a, s'), the target or the policy.
+    a = make(MBIL, env_id, data[env_id], transition_noise_grid=(0.1,)).learn(40)
+    b = make(MBIL, env_id, data[env_id], transition_noise_grid=(0.01, 0.3)).learn(40)
+    pa, pb = params(a), params(b)
+    assert_same_params({k: v for k, v in pa.items() if not k.startswith("flows.transition.")},
+                       {k: v for k, v in pb.items() if not k.startswith("flows.transition.")})
+    assert any(not th.equal(pa[k], pb[k]) for k in pa if k.startswith("flows.transition."))
+    assert a.flow_report["transition"]["candidates"].keys() == {"0.1"}
+    assert b.flow_report["transition"]["candidates"].keys() == {"0.01", "0.3"}
+
+
 @pytest.mark.parametrize("algo", ALGOS)
 def test_callbacks_count_gradient_steps(algo, data, tmp_path):
     eval_env = Monitor(gym.make("CartPole-v1"))

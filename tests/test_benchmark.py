@@ -8,6 +8,7 @@ from sb3_mbil.benchmark import RESULT_COLUMNS, Run, make_grid
 from sb3_mbil.benchmark.report import aggregate, plot, read_rows, table
 from sb3_mbil.benchmark.runner import pending, run_local, run_ray
 
+TINY_FLOWS = {"flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]}
 TINY = {"mbil": {"n_timesteps": 20, "flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]},
         "bc": {"n_timesteps": 20}}
 
@@ -69,6 +70,18 @@ def test_unknown_env_is_refused():
         tuned_settings("mbil", "Pendulum-v1")
 
 
+@pytest.mark.parametrize("algo", ["mbil", "bc"])
+def test_every_expert_env_has_tuned_settings(algo):
+    from sb3_mbil.benchmark.grid import tuned_settings
+    from sb3_mbil.common.experts import EXPERTS
+
+    for env in EXPERTS:
+        settings = tuned_settings(algo, env)
+        assert isinstance(settings.get("policy_kwargs", {}), dict)  # the zoo's string form, evaluated
+    assert tuned_settings(algo, "Walker2d-v4")["policy_kwargs"] == {"net_arch": [256, 256]}
+    assert tuned_settings(algo, "Walker2d-v4")["bc_loss"] == "mse"
+
+
 def test_append_keeps_an_existing_header(tmp_path):
     from sb3_mbil.benchmark.results import append_row
 
@@ -104,3 +117,24 @@ def test_learning_curves_resume(tmp_path):
     assert run_curves(variants, ["CartPole-v1"], [0], str(out), n_updates=40, eval_every=20, n_episodes=2, use_ray=False) == 0
     summary = curve_summary(rows)
     assert summary[("bc", "CartPole-v1", 40)][2] == 1
+
+
+def test_curve_table_reports_final_return_and_late_drop():
+    from sb3_mbil.benchmark.curves import curve_table
+
+    rows = [{"env": "E", "algo": "bc", "seed": s, "gradient_step": step, "mean_return": ret}
+            for s in (0, 1) for step, ret in ((500, 100.0), (1000, 900.0 + s), (1500, 300.0), (2000, 100.0 - s))]
+    text = curve_table(rows, {"E": 1000.0}, last=2)
+    # final: seed 0 (300 + 100) / 2 = 200, seed 1 (300 + 99) / 2 = 199.5; best point 900.5 at 1000 updates
+    assert "| E | bc | 200 +- 0 | 0.20 | 900 (1000) | -701 | 2 | 2000 |" in text
+
+
+def test_measure_speed_reports_fit_and_update_times(cartpole_data):
+    from sb3_mbil.speed import measure_speed
+
+    r = measure_speed("CartPole-v1", cartpole_data, steps=200, repeats=1, budget=1000, mbil_kwargs=TINY_FLOWS)
+    assert r["n_tuples"] > 0 and r["steps"] == 200
+    assert r["flow_fit_seconds"] > 0 and r["transition_fit_cpu_seconds"] > 0 and r["next_action_fit_cpu_seconds"] > 0
+    expected = (r["flow_fit_seconds"] + r["mbil_policy_seconds"] * 5) / (r["bc_seconds"] * 5)  # budget = 5 blocks
+    assert r["total_ratio"] == pytest.approx(expected, rel=0.05)
+    assert r["policy_update_ratio"] == pytest.approx(r["mbil_policy_seconds"] / r["bc_seconds"], rel=0.05)

@@ -12,9 +12,11 @@ from stable_baselines3 import DQN
 
 from sb3_mbil import load_demonstrations
 from sb3_mbil.common.demonstrations import available_pools
-from sb3_mbil.common.experts import generate_demonstrations, get_expert, load_expert_file
+from sb3_mbil.common.experts import EXPERTS, generate_demonstrations, get_expert, load_expert_file
 
-SHIPPED = {"CartPole-v1": 475.0, "Acrobot-v1": -100.0, "LunarLander-v3": 200.0}
+# Shipped pools: the acceptance thresholds of their experts, and their size.
+SHIPPED = {env: spec.min_return for env, spec in EXPERTS.items()}
+POOL_SIZE = {"CartPole-v1": 1000, "Acrobot-v1": 1000, "LunarLander-v3": 1000}  # MuJoCo pools: 50 trajectories
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +30,7 @@ def dqn_zip(tmp_path_factory):
 def test_shipped_pools_match_their_envs(env_id):
     d = load_demonstrations(env_id)
     env = gym.make(env_id)
-    assert len(d) == 1000
+    assert len(d) == POOL_SIZE.get(env_id, 50)
     d.check_spaces(env.observation_space, env.action_space)
     assert d.metadata["env_id"] == env_id
     assert d.episode_returns.mean() >= SHIPPED[env_id]

@@ -124,7 +124,34 @@ def curve_summary(rows: list[dict]) -> dict[tuple[str, str, int], tuple[float, f
     return {k: (float(np.mean(v)), float(np.std(v)), len(v)) for k, v in groups.items()}
 
 
-__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "run_curve", "run_curves"]
+def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: int = 10) -> str:
+    """Markdown: per (env, variant) the final return (each seed's mean over its last ``last``
+    evaluations, then mean +- std over seeds), its share of the expert's return, the best point of
+    the seed-mean curve and the final minus the best (a late collapse shows as a large drop)."""
+    per_seed: dict[tuple[str, str, str], list[tuple[int, float]]] = {}
+    for r in rows:
+        per_seed.setdefault((r["env"], r["algo"], str(r["seed"])), []).append((int(r["gradient_step"]), float(r["mean_return"])))
+    summary = curve_summary(rows)
+    lines = [f"| env | variant | final return (last {last} evaluations) | final / expert | best point (updates) | final - best | seeds | updates |",
+             "|---|---|---|---|---|---|---|---|"]
+    for env, variant in sorted({(e, v) for e, v, _ in per_seed}):
+        finals, n_updates = [], []
+        for (e, v, _), points in per_seed.items():
+            if (e, v) == (env, variant):
+                points.sort()
+                finals.append(np.mean([ret for _, ret in points[-last:]]))
+                n_updates.append(points[-1][0])
+        curve = {step: m for (v, e, step), (m, _, _) in summary.items() if (e, v) == (env, variant)}
+        best_step = max(curve, key=curve.get)
+        final = float(np.mean(finals))
+        share = f"{final / expert[env]:.2f}" if expert and env in expert else ""
+        lines.append(f"| {env} | {variant} | {final:.0f} +- {np.std(finals):.0f} | {share} | {curve[best_step]:.0f} ({best_step}) | "
+                     f"{final - curve[best_step]:.0f} | {len(finals)} | {min(n_updates)} |")
+    return "\n".join(lines)
+
+
+__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "run_curve",
+           "run_curves"]
 
 
 def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None) -> None:

@@ -54,8 +54,13 @@ class MBIL(OfflineAlgorithm):
     :param flow_max_steps: maximum gradient steps of one flow fit
     :param flow_eval_every: steps between held-out evaluations (early stopping)
     :param flow_patience: held-out evaluations without improvement before stopping
-    :param noise_grid: Gaussian input-noise levels (standardised units) tried; the held-out
-        log-likelihood picks one per model
+    :param noise_grid: Gaussian input-noise levels (standardised units) tried for P(a' | s, a, s');
+        the held-out log-likelihood picks one
+    :param transition_noise_grid: the levels tried for T(s' | s, a) (``None``: ``noise_grid``). T
+        cancels from the balance target (log P - log T = log P(a' | s, a, s'), see
+        :mod:`sb3_mbil.mbil.policies`) and its fit draws its own random numbers, so this setting never
+        changes the policy; it sets the cost and quality of T's diagnostics (held-out
+        log-likelihoods, ``flows.log_t`` / ``flows.log_p``)
     :param validation_fraction: share of tuples (in blocks of consecutive steps) held out
     :param flow_refit: after choosing noise and step count, refit on all tuples
     :param log_density_floor: lower bound on the balance target (log-densities)
@@ -92,6 +97,7 @@ class MBIL(OfflineAlgorithm):
         flow_eval_every: int = 25,
         flow_patience: int = 10,
         noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
+        transition_noise_grid: Sequence[float] | None = (0.03,),
         validation_fraction: float = 0.2,
         flow_refit: bool = True,
         log_density_floor: float = -50.0,
@@ -120,6 +126,7 @@ class MBIL(OfflineAlgorithm):
         self.flow_eval_every = flow_eval_every
         self.flow_patience = flow_patience
         self.noise_grid = [float(v) for v in noise_grid]
+        self.transition_noise_grid = None if transition_noise_grid is None else [float(v) for v in transition_noise_grid]
         self.validation_fraction = validation_fraction
         self.flow_refit = flow_refit
         self.log_density_floor = log_density_floor
@@ -145,6 +152,9 @@ class MBIL(OfflineAlgorithm):
         need("flow_scale_limit", _is_real(self.flow_scale_limit) and self.flow_scale_limit > 0, "a number > 0")
         need("flow_learning_rate", _is_real(self.flow_learning_rate) and self.flow_learning_rate > 0, "a number > 0")
         need("noise_grid", len(self.noise_grid) >= 1 and min(self.noise_grid) >= 0, "a non-empty list of levels >= 0")
+        if self.transition_noise_grid is not None:
+            need("transition_noise_grid", len(self.transition_noise_grid) >= 1 and min(self.transition_noise_grid) >= 0,
+                 "None or a non-empty list of levels >= 0")
         need("validation_fraction", _is_real(self.validation_fraction) and 0 < self.validation_fraction < 1, "a value in (0, 1)")
         need("log_density_floor", _is_real(self.log_density_floor), "a finite number")
 
@@ -213,7 +223,8 @@ class MBIL(OfflineAlgorithm):
         )
         s, a, s_next, a_next = tup["s"], tup["a"], tup["s_next"], tup["a_next"]
         fitted_t, report_t = fit_conditional_density(
-            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx, **common
+            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
+            **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid},
         )
         fitted_p, report_p = fit_conditional_density(
             self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common
