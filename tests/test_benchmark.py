@@ -54,7 +54,7 @@ def test_report(tmp_path):
     assert "| mbil |" in text and "published best" in text
     from sb3_mbil.benchmark.report import paired
 
-    assert "| CartPole-v1 | 0 of 3 | 0 of 3 |" in paired(rows)
+    assert "| CartPole-v1 | 0 of 3, +80.0 +- 0.0 | 0 of 3, +80.0 +- 0.0 |" in paired(rows)
     agg = aggregate(rows, reps=200)
     assert agg["mbil"]["mean"][0] > agg["bc"]["mean"][0]
     lo, hi = agg["mbil"]["iqm"][1], agg["mbil"]["iqm"][2]

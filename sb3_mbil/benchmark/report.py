@@ -136,18 +136,25 @@ def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
 
 
 def paired(rows, a: str = "mbil", b: str = "bc") -> str:
-    """Per (env, N): on how many seeds ``a`` scored below ``b`` (the same trajectories, the same seed)."""
+    """Per (env, N): on how many seeds ``a`` scored below ``b`` (the same trajectories, the same seed), and the
+    mean paired difference ``a - b`` with its standard error."""
     runs = defaultdict(dict)
     for r in rows:
         runs[(r["env"], r["n_trajectories"], r["seed"])][r["algo"]] = r["mean_return"]
     cells = sorted({(e, n) for (e, n, _) in runs})
     ns = sorted({n for _, n in cells})
-    lines = [f"\nSeeds on which {a} scored below {b} (paired: same trajectories, same seed), of the seeds with both:\n",
+    lines = [f"\nSeeds on which {a} scored below {b} (paired: same trajectories, same seed), of the seeds with both; "
+             f"then the mean difference {a} - {b} +- its standard error:\n",
              "| env | " + " | ".join(f"N={n}" for n in ns) + " |", "|---|" + "---|" * len(ns)]
     for env in sorted({e for e, _ in cells}):
         cells_env = []
         for n in ns:
             pairs = [(v[a], v[b]) for (e, nn, _), v in runs.items() if e == env and nn == n and a in v and b in v]
-            cells_env.append(f"{sum(x < y for x, y in pairs)} of {len(pairs)}" if pairs else "")
+            if not pairs:
+                cells_env.append("")
+                continue
+            d = np.array([x - y for x, y in pairs], dtype=float)
+            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+            cells_env.append(f"{int((d < 0).sum())} of {len(d)}, {d.mean():+.1f} +- {se:.1f}")
         lines.append(f"| {env} | " + " | ".join(cells_env) + " |")
     return "\n".join(lines)

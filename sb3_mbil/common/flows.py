@@ -237,7 +237,8 @@ def fit_conditional_density(
             make_model, x, c, everything, None, noise, learning_rate, batch_size, steps, eval_every, patience, seed
         )
     else:
-        model = make_model()
+        with th.random.fork_rng(devices=[]):  # the fit never draws from the caller's random stream
+            model = make_model().to(x.device)
         model.load_state_dict(state)
     model.eval()
     train_ll = float(evaluate_log_prob(model, x[tr], c[tr]).mean())

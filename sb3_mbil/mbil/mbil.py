@@ -61,6 +61,9 @@ class MBIL(OfflineAlgorithm):
         :mod:`sb3_mbil.mbil.policies`) and its fit draws its own random numbers, so this setting never
         changes the policy; it sets the cost and quality of T's diagnostics (held-out
         log-likelihoods, ``flows.log_t`` / ``flows.log_p``)
+    :param transition_refit: refit T on all tuples after choosing its noise and step count (by
+        default T keeps its fit on the training split, so its reported held-out log-likelihood is
+        that of the saved T, at half the cost)
     :param validation_fraction: share of tuples (in blocks of consecutive steps) held out
     :param flow_refit: after choosing noise and step count, refit on all tuples
     :param log_density_floor: lower bound on the balance target (log-densities)
@@ -98,6 +101,7 @@ class MBIL(OfflineAlgorithm):
         flow_patience: int = 10,
         noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
         transition_noise_grid: Sequence[float] | None = (0.03,),
+        transition_refit: bool = False,
         validation_fraction: float = 0.2,
         flow_refit: bool = True,
         log_density_floor: float = -50.0,
@@ -127,6 +131,7 @@ class MBIL(OfflineAlgorithm):
         self.flow_patience = flow_patience
         self.noise_grid = [float(v) for v in noise_grid]
         self.transition_noise_grid = None if transition_noise_grid is None else [float(v) for v in transition_noise_grid]
+        self.transition_refit = transition_refit
         self.validation_fraction = validation_fraction
         self.flow_refit = flow_refit
         self.log_density_floor = log_density_floor
@@ -224,7 +229,7 @@ class MBIL(OfflineAlgorithm):
         s, a, s_next, a_next = tup["s"], tup["a"], tup["s_next"], tup["a_next"]
         fitted_t, report_t = fit_conditional_density(
             self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
-            **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid},
+            **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)},
         )
         fitted_p, report_p = fit_conditional_density(
             self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common
