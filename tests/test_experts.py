@@ -177,9 +177,9 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400"
     run1 = folder / "dqn" / "CartPole-v1_1"
     assert (run1 / "rl_model_200_steps.zip").is_file() and (run1 / "rl_model_replay_buffer_200_steps.pkl").is_file()
-    # interrupt: as if the session ended after the checkpoint at 200 steps
+    # interrupt: as if the session ended while writing the checkpoint at 400 steps (model, no replay buffer)
     (run1 / "CartPole-v1.zip").unlink()
-    (run1 / "rl_model_400_steps.zip").unlink()
+    (run1 / "rl_model_replay_buffer_400_steps.pkl").unlink()
     expert = train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
     run2 = folder / "dqn" / "CartPole-v1_2"
     assert (run2 / "CartPole-v1.zip").is_file()
@@ -187,6 +187,20 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     log = folder.with_suffix(".log").read_text()
     assert "Loading pretrained agent" in log and "Loading replay buffer" in log
     assert expert.source == "zoo:dqn seed=0"
+
+
+def test_resumable_checkpoints_are_whole_and_pruned(tmp_path):
+    from sb3_mbil.common.callbacks import ResumableCheckpoint
+
+    model = DQN("MlpPolicy", "CartPole-v1", learning_starts=0, buffer_size=1000, seed=0)
+    model.learn(300, callback=ResumableCheckpoint(save_freq=50, save_path=str(tmp_path), keep=2))
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "rl_model_250_steps.zip", "rl_model_300_steps.zip",
+        "rl_model_replay_buffer_250_steps.pkl", "rl_model_replay_buffer_300_steps.pkl",
+    ]
+    DQN.load(tmp_path / "rl_model_300_steps.zip").load_replay_buffer(tmp_path / "rl_model_replay_buffer_300_steps.pkl")
+    with pytest.raises(ValueError, match="keep: expected an integer >= 1"):
+        ResumableCheckpoint(save_freq=50, save_path=str(tmp_path), keep=0)
 
 
 def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch):

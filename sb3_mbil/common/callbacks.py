@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import gymnasium as gym
-from stable_baselines3.common.callbacks import BaseCallback
+import os
+from pathlib import Path
+
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize, sync_envs_normalization, unwrap_vec_normalize
@@ -46,3 +49,52 @@ class StopTrainingOnReturn(BaseCallback):
                 print(f"Stopping: mean return {self.last_mean_return:.1f} >= {self.min_return} at {self.num_timesteps} steps")
             return False
         return True
+
+
+class ResumableCheckpoint(CheckpointCallback):
+    """SB3's CheckpointCallback with the replay buffer and VecNormalize statistics, written so that a
+    checkpoint is whole or absent, keeping only the newest ``keep`` checkpoints.
+
+    Each file is written under a temporary name and renamed; the model zip comes last, so a
+    ``rl_model_<steps>_steps.zip`` means its replay buffer is complete (what a continuation with
+    rl_zoo3's ``-i`` needs). Older checkpoints are deleted: a SAC replay buffer of 1e6 transitions
+    is hundreds of MB per checkpoint.
+
+    :param save_freq: calls between checkpoints (env steps for one env)
+    :param save_path: folder of the checkpoints
+    :param keep: how many of the newest checkpoints to keep
+    """
+
+    def __init__(self, save_freq: int, save_path: str, keep: int = 2, name_prefix: str = "rl_model", verbose: int = 0):
+        super().__init__(save_freq, save_path, name_prefix, save_replay_buffer=True, save_vecnormalize=True, verbose=verbose)
+        if keep < 1:
+            raise ValueError(f"keep: expected an integer >= 1, found {keep!r}")
+        self.keep = int(keep)
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq != 0:
+            return True
+        writers = []
+        if getattr(self.model, "replay_buffer", None) is not None:
+            writers.append((self._checkpoint_path("replay_buffer_", extension="pkl"), self.model.save_replay_buffer))
+        if self.model.get_vec_normalize_env() is not None:
+            writers.append((self._checkpoint_path("vecnormalize_", extension="pkl"), self.model.get_vec_normalize_env().save))
+        writers.append((self._checkpoint_path(extension="zip"), self.model.save))  # last: it marks the checkpoint whole
+        for path, save in writers:
+            final = Path(path)
+            tmp = final.with_name(f"tmp_{final.name}")
+            save(str(tmp))
+            os.replace(tmp, final)
+            if self.verbose >= 2:
+                print(f"Saving checkpoint file to {final}")
+        self._prune()
+        return True
+
+    def _prune(self) -> None:
+        folder = Path(self.save_path)
+        prefix = f"{self.name_prefix}_"
+        steps = sorted(int(p.stem[len(prefix):-len("_steps")]) for p in folder.glob(f"{prefix}*_steps.zip")
+                       if p.stem[len(prefix):-len("_steps")].isdigit())
+        for old in steps[:-self.keep]:
+            for name in (f"{prefix}{old}_steps.zip", f"{prefix}replay_buffer_{old}_steps.pkl", f"{prefix}vecnormalize_{old}_steps.pkl"):
+                (folder / name).unlink(missing_ok=True)

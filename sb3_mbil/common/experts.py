@@ -230,10 +230,9 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
             cmd += ["-n", str(remaining)]
         next_run = f"{env_id}_{_run_ids(runs_dir, env_id)[-1] + 1 if _run_ids(runs_dir, env_id) else 1}"
         callbacks = []
-        if save_freq:  # SB3's CheckpointCallback: model, replay buffer and VecNormalize statistics
-            callbacks.append({"stable_baselines3.common.callbacks.CheckpointCallback": {
-                "save_freq": int(save_freq), "save_path": str(runs_dir / next_run), "name_prefix": "rl_model",
-                "save_replay_buffer": True, "save_vecnormalize": True}})
+        if save_freq:  # model, replay buffer and VecNormalize statistics, whole or absent, the newest two kept
+            callbacks.append({"sb3_mbil.common.callbacks.ResumableCheckpoint": {
+                "save_freq": int(save_freq), "save_path": str(runs_dir / next_run), "keep": 2}})
             cmd += ["--save-replay-buffer"]
         if stop_at_return is not None:
             callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": {
@@ -272,10 +271,14 @@ def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
 
 def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
     for run_id in reversed(_run_ids(runs_dir, env_id)):
+        run = runs_dir / f"{env_id}_{run_id}"
+        # an off-policy run's checkpoint is usable only with its replay buffer (missing when a session
+        # ended between the two files, or pruned)
+        needs_buffer = any(run.glob("rl_model_replay_buffer_*_steps.pkl"))
         ckpts = []
-        for p in (runs_dir / f"{env_id}_{run_id}").glob("rl_model_*_steps.zip"):
+        for p in run.glob("rl_model_*_steps.zip"):
             middle = p.stem[len("rl_model_"):-len("_steps")]
-            if middle.isdigit():
+            if middle.isdigit() and (not needs_buffer or (run / f"rl_model_replay_buffer_{middle}_steps.pkl").is_file()):
                 ckpts.append((int(middle), p))
         if ckpts:
             steps, path = max(ckpts)
