@@ -125,6 +125,12 @@ def test_transition_fit_never_changes_the_policy(env_id, data):
     assert b.flow_report["transition"]["candidates"].keys() == {"0.01", "0.3"}
 
 
+def test_tuple_targets_are_the_cached_balance_targets(data):
+    model = make(MBIL, "Pendulum-v1", data["Pendulum-v1"]).learn(5)
+    assert th.equal(model.tuple_targets(), model._data["target"])
+    assert len(model.tuple_targets()) == model.flow_report["n_tuples"]
+
+
 @pytest.mark.parametrize("algo", ALGOS)
 def test_callbacks_count_gradient_steps(algo, data, tmp_path):
     eval_env = Monitor(gym.make("CartPole-v1"))

@@ -263,6 +263,11 @@ class MBIL(OfflineAlgorithm):
         target = th.cat(parts)
         return th.nan_to_num(target, nan=self.log_density_floor).clamp(min=self.log_density_floor)
 
+    def tuple_targets(self) -> th.Tensor:
+        """The balance target of every expert tuple (what the policy's log pi(a' | s') is regressed on)."""
+        tup = self._tuples()
+        return self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
+
     # ------------------------------------------------------------------ policy
     def _prepare_training(self) -> None:
         if not bool(self.flows.fitted):
@@ -277,7 +282,7 @@ class MBIL(OfflineAlgorithm):
                 "actions": th.cat([act, tup["a_next"]]),
                 "n_pairs": len(obs),
                 "n_tuples": len(tup["s_next"]),
-                "target": self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"]),
+                "target": self.tuple_targets(),
                 "empty": th.zeros(0, dtype=th.long, device=self.device),
             }
         if self.flow_report is not None:
