@@ -5,19 +5,12 @@
 
 import argparse
 import csv
-import os
-import subprocess
-import tempfile
+import io
 
 from sb3_mbil import load_demonstrations
+from sb3_mbil.benchmark.grid import git_commit
+from sb3_mbil.benchmark.results import write_text
 from sb3_mbil.speed import measure_speed
-
-
-def commit() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True).stdout.strip()
-    except Exception:
-        return "unknown"
 
 
 def main(argv=None):
@@ -30,20 +23,18 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default=None, help="CSV to write (whole, atomically)")
     a = p.parse_args(argv)
-    rows = []
+    rows, commit = [], git_commit()
     for n in a.n_trajectories:
         demos = load_demonstrations(a.env).sample(n, seed=a.seed)
-        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed, budget=a.budget), "commit": commit()}
+        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed, budget=a.budget), "commit": commit}
         rows.append(row)
         print(", ".join(f"{k}={v}" for k, v in row.items()), flush=True)
     if a.out:
-        os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(a.out) or ".", suffix=".tmp")
-        with os.fdopen(fd, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
-        os.replace(tmp, a.out)
+        buf = io.StringIO(newline="")
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+        write_text(a.out, buf.getvalue())
 
 
 if __name__ == "__main__":

@@ -1,9 +1,9 @@
 """Learning curves with one expert trajectory: Figure 4 (MBIL vs BC with and without weight decay) or the
 Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates on --episodes episodes.
 
-    python scripts/run_curves.py --figure 4 --envs Hopper-v4 Walker2d-v4 --seeds 0-4 --updates 100000 \\
+    python scripts/run_curves.py --figure 4 --envs Hopper-v4 Walker2d-v4 --seeds 0-4 --updates 50000 \\
         --csv results/mujoco.csv --plot results/mujoco.png
-    python scripts/run_curves.py --figure 5 --envs Walker2d-v4 --seeds 0-4 --updates 100000 \\
+    python scripts/run_curves.py --figure 5 --envs Walker2d-v4 --seeds 0-4 --updates 50000 \\
         --csv results/ablation.csv --plot results/ablation.png
 """
 

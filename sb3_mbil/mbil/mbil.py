@@ -282,7 +282,7 @@ class MBIL(OfflineAlgorithm):
                 "actions": th.cat([act, tup["a_next"]]),
                 "n_pairs": len(obs),
                 "n_tuples": len(tup["s_next"]),
-                "target": self.tuple_targets(),
+                "target": self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"]),
                 "empty": th.zeros(0, dtype=th.long, device=self.device),
             }
         if self.flow_report is not None:
