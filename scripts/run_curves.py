@@ -5,6 +5,8 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
         --csv results/mujoco.csv --plot results/mujoco.png
     python scripts/run_curves.py --figure 5 --envs Walker2d-v4 --seeds 0-4 --updates 50000 \\
         --csv results/ablation.csv --plot results/ablation.png
+    python scripts/run_curves.py --variants '{"mbil_a0.01": ["mbil", {"alpha": 0.01}]}' --envs Hopper-v4 \\
+        --seeds 100-102 --updates 50000 --eval-every 5000 --csv results/tuning/mujoco.csv
 """
 
 import argparse
@@ -16,6 +18,8 @@ from sb3_mbil.benchmark.cli import parse_seeds
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--figure", choices=["4", "5"], default="4")
+    p.add_argument("--variants", default=None,
+                   help='JSON {"name": ["algo", {settings}]} instead of the figure\'s variants (tuning runs)')
     p.add_argument("--envs", nargs="+", required=True)
     p.add_argument("--seeds", type=parse_seeds, default=list(range(5)))
     p.add_argument("--updates", type=int, required=True, help="gradient updates per run")
@@ -30,10 +34,17 @@ def main(argv=None):
     p.add_argument("--local", action="store_true", help="without Ray")
     a = p.parse_args(argv)
     from sb3_mbil import load_demonstrations
-    from sb3_mbil.benchmark.curves import ABLATION_VARIANTS, FIGURE4_VARIANTS, curve_table, plot_curves, run_curves
+    from sb3_mbil.benchmark.curves import (ABLATION_VARIANTS, FIGURE4_VARIANTS, curve_table, parse_variants, plot_curves,
+                                           run_curves)
     from sb3_mbil.benchmark.results import write_text
 
-    variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
+    if a.variants:
+        try:
+            variants = parse_variants(a.variants)
+        except ValueError as e:
+            p.error(str(e))
+    else:
+        variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
     n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories,
                    use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
     print(f"{n} runs done now; results in {a.csv}")

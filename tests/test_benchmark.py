@@ -1,6 +1,7 @@
 """Benchmark harness: resumable CSV, Ray runner, local runner, report."""
 
 import csv
+import re
 
 import pytest
 
@@ -138,3 +139,13 @@ def test_measure_speed_reports_fit_and_update_times(cartpole_data):
     expected = (r["flow_fit_seconds"] + r["mbil_policy_seconds"] * 5) / (r["bc_seconds"] * 5)  # budget = 5 blocks
     assert r["total_ratio"] == pytest.approx(expected, rel=0.05)
     assert r["policy_update_ratio"] == pytest.approx(r["mbil_policy_seconds"] / r["bc_seconds"], rel=0.05)
+
+
+def test_parse_variants_checks_each_entry():
+    from sb3_mbil.benchmark.curves import parse_variants
+
+    assert parse_variants('{"a": ["mbil", {"alpha": 0.1}]}') == {"a": ("mbil", {"alpha": 0.1})}
+    for bad, field in (("{", "variants"), ("[]", "variants"), ('{"a": ["ppo", {}]}', "variants['a']"),
+                       ('{"a": ["bc"]}', "variants['a']")):
+        with pytest.raises(ValueError, match=re.escape(field)):
+            parse_variants(bad)

@@ -33,6 +33,26 @@ ABLATION_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
 }
 
 
+def parse_variants(text: str) -> dict[str, tuple[str, dict[str, Any]]]:
+    """Variants from JSON, ``{"name": ["algo", {settings}]}`` (e.g. tuning runs beside the figures' variants)."""
+    import json
+
+    from sb3_mbil import ALGORITHMS
+
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"variants: expected JSON {{\"name\": [\"algo\", {{settings}}]}}, found {text!r} ({e})") from None
+    if not isinstance(raw, dict) or not raw:
+        raise ValueError(f"variants: expected a non-empty JSON object, found {text!r}")
+    out = {}
+    for name, spec in raw.items():
+        if not (isinstance(spec, list) and len(spec) == 2 and spec[0] in ALGORITHMS and isinstance(spec[1], dict)):
+            raise ValueError(f"variants[{name!r}]: expected [algo, {{settings}}] with algo in {sorted(ALGORITHMS)}, found {spec!r}")
+        out[str(name)] = (spec[0], dict(spec[1]))
+    return out
+
+
 @dataclass(frozen=True)
 class CurveRun:
     variant: str
