@@ -202,3 +202,25 @@ def test_importing_the_flows_keeps_torch_distribution_validation():
             "print(before, torch.distributions.Distribution._validate_args)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.stdout.split() == ["True", "True"], out.stderr
+
+
+def test_balance_diagnostics_split_the_residual(data):
+    model = make(MBIL, "Pendulum-v1", data["Pendulum-v1"])
+    with pytest.raises(RuntimeError, match="not fitted"):
+        model.balance_diagnostics()
+    model.learn(50)
+    d = model.balance_diagnostics()
+    target = model.tuple_targets()
+    tup = model._tuples()
+    with th.no_grad():
+        log_pi = model.policy.log_prob(tup["s_next"], tup["a_next"])
+        mean, log_std = model.policy.mean_log_std(tup["s_next"])
+    assert d["residual_mse"] == pytest.approx(float((target - log_pi).pow(2).mean()), rel=1e-5)
+    # Gaussian: log pi = log pi_max - q, q the mean's share, >= 0
+    q = (0.5 * ((tup["a_next"].view_as(mean) - mean) / log_std.exp()).pow(2)).sum(1)
+    assert d["mean_shift_nats"] == pytest.approx(float(q.mean()), rel=1e-4) and d["mean_shift_nats"] >= 0
+    assert d["residual_mse_mean_on_action"] == pytest.approx(float((target - log_pi - q).pow(2).mean()), rel=1e-4)
+    assert d["n_tuples"] == len(target) and 0 <= d["unreachable_targets"] <= len(target)
+    assert d["bc_mse"] > 0
+    discrete = make(MBIL, "CartPole-v1", data["CartPole-v1"]).learn(5).balance_diagnostics()
+    assert "mean_shift_nats" not in discrete and discrete["residual_mse"] >= 0

@@ -149,3 +149,22 @@ def test_parse_variants_checks_each_entry():
                        ('{"a": ["bc"]}', "variants['a']")):
         with pytest.raises(ValueError, match=re.escape(field)):
             parse_variants(bad)
+
+
+def test_flow_report_trains_and_reports_the_balance_split():
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    tiny = json.dumps({**TINY_FLOWS, "policy_kwargs": "dict(net_arch=[16])"})
+    out = subprocess.run([sys.executable, "scripts/flow_report.py", "--env", "Hopper-v4", "--seed", "3", "--updates", "10", "30",
+                          "--set", tiny, "--eval-episodes", "1"], cwd=repo, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    points = [json.loads(line) for line in out.stdout.splitlines() if line.startswith('{"updates"')]
+    assert [p["updates"] for p in points] == [10, 30]
+    assert all(p["mean_shift_nats"] >= 0 and p["residual_mse"] >= 0 for p in points)
+    bad = subprocess.run([sys.executable, "scripts/flow_report.py", "--env", "Hopper-v4", "--updates", "30", "10"], cwd=repo,
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "--updates: expected increasing" in bad.stderr

@@ -60,9 +60,9 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None)
     if env not in table:
         raise ValueError(f"env: expected an entry for {env} in {hyperparams_file(algo)}, found entries {sorted(table)}")
     settings = {k: v for k, v in table[env].items() if k not in DATA_KEYS and k != "policy"}
+    settings.update(overrides or {})
     if isinstance(settings.get("policy_kwargs"), str):  # as rl_zoo3 reads it: "dict(net_arch=[256, 256])"
         settings["policy_kwargs"] = eval(settings["policy_kwargs"], {"dict": dict})
-    settings.update(overrides or {})
     return settings
 
 

@@ -268,6 +268,46 @@ class MBIL(OfflineAlgorithm):
         tup = self._tuples()
         return self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
 
+    @th.no_grad()
+    def balance_diagnostics(self) -> dict[str, Any]:
+        """How the current policy meets the balance target on the expert tuples (nats; Box: also the mean's share).
+
+        ``residual_mse`` is the balance loss over all tuples, E[(t - log pi(a' | s'))^2] with t the
+        target. For a Gaussian pi, log pi(a' | s') = log pi_max(s') - q with log pi_max(s') =
+        -sum(log std) - d/2 log(2 pi) (the density with the mean on a') and q = sum((a' - mean)^2 /
+        (2 std^2)) >= 0: the policy can lower log pi either with its std or by moving its mean off the
+        expert's action. ``mean_shift_nats`` is E[q] (the part moved by the mean),
+        ``residual_mse_mean_on_action`` the balance loss if the mean sat on a' (std alone),
+        ``unreachable_targets`` the tuples whose t is below the lowest log pi_max the log-std bound
+        allows (only a moved mean reaches them) and ``bc_mse`` the mean's squared error on the (s, a)
+        pairs (the MSE behaviour-cloning term).
+        """
+        tup = self._tuples()
+        target = self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
+        heads = self.policy.heads(tup["s_next"])
+        log_pi = self.policy.log_prob_from_heads(heads, tup["a_next"])
+        out: dict[str, Any] = {
+            "n_tuples": len(target),
+            "target_mean": float(target.mean()), "target_std": float(target.std()),
+            "target_min": float(target.min()), "target_max": float(target.max()),
+            "residual_mse": float((target - log_pi).pow(2).mean()),
+        }
+        if self.policy.discrete:
+            return out
+        mean, log_std = heads
+        d = mean.shape[1]
+        log_pi_max = -log_std.sum(1) - 0.5 * d * math.log(2 * math.pi)
+        lowest = -d * self.policy.log_std_bounds[1] - 0.5 * d * math.log(2 * math.pi)
+        pairs = self.demonstrations().pairs()
+        bc_mean = self.policy.mean_action(self._to_tensor(pairs["observations"], "obs"))
+        out.update(
+            mean_shift_nats=float((log_pi_max - log_pi).mean()),
+            residual_mse_mean_on_action=float((target - log_pi_max).pow(2).mean()),
+            unreachable_targets=int((target < lowest).sum()),
+            bc_mse=float((bc_mean - self._to_tensor(pairs["actions"], "act").view_as(bc_mean)).pow(2).mean()),
+        )
+        return out
+
     # ------------------------------------------------------------------ policy
     def _prepare_training(self) -> None:
         if not bool(self.flows.fitted):
