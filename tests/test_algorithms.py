@@ -224,3 +224,27 @@ def test_balance_diagnostics_split_the_residual(data):
     assert d["bc_mse"] > 0
     discrete = make(MBIL, "CartPole-v1", data["CartPole-v1"]).learn(5).balance_diagnostics()
     assert "mean_shift_nats" not in discrete and discrete["residual_mse"] >= 0
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tmp_path):
+    trajs = data["Pendulum-v1"]
+    model = make(algo, "Pendulum-v1", trajs, policy_kwargs={"normalize_observations": True}).learn(20)
+    obs = np.concatenate([o[:-1] for o, _ in trajs]).astype(np.float32)
+    pol = model.policy
+    np.testing.assert_allclose(pol.obs_mean.numpy(), obs.mean(0), rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(pol.obs_std.numpy(), np.maximum(obs.std(0), 1e-3), rtol=1e-4)
+    x = th.as_tensor(obs[:8])
+    with th.no_grad():
+        expected = pol.mean_head(pol.latent(((x - pol.obs_mean) / pol.obs_std).clamp(-10, 10)))
+        np.testing.assert_allclose(pol.mean_action(x).numpy(), expected.numpy(), rtol=1e-6)
+    stats = pol.obs_mean.clone()
+    model.learn(5)  # a second learn keeps the statistics
+    assert th.equal(pol.obs_mean, stats)
+    model.save(tmp_path / "m.zip")
+    loaded = algo.load(tmp_path / "m.zip", env=gym.make("Pendulum-v1"))
+    assert loaded.policy.normalize_observations and th.equal(loaded.policy.obs_mean, stats)
+    np.testing.assert_array_equal(model.predict(obs[:8], deterministic=True)[0], loaded.predict(obs[:8], deterministic=True)[0])
+    # off by default: the statistics stay unset and unused
+    plain = make(algo, "Pendulum-v1", trajs).learn(5)
+    assert not plain.policy.normalize_observations and not bool(plain.policy.obs_stats_set)

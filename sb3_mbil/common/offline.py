@@ -164,7 +164,10 @@ class OfflineAlgorithm(BaseAlgorithm):
         total_timesteps, callback = self._setup_learn(
             int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
         )
-        self.demonstrations()  # check the data before anything else
+        demos = self.demonstrations()  # check the data before anything else
+        if getattr(self.policy, "normalize_observations", False) and not bool(self.policy.obs_stats_set):
+            # set once (kept by save/load and by set_expert_data, so continued training sees the same inputs)
+            self.policy.set_observation_stats(self._to_tensor(demos.pairs()["observations"], "obs"))
         self._prepare_training()
         callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)

@@ -8,6 +8,10 @@ An MLP with two ReLU hidden layers (the paper's policy) and
   is exactly the Gaussian's; ``predict`` clips to the action bounds).
 
 Deterministic ``predict`` returns the argmax or the mean.
+
+With ``normalize_observations=True`` the network sees (s - mean) / std of the expert states (std
+floored at 1e-3, the result clipped to +-10 as SB3's VecNormalize does); the statistics are set from
+the demonstrations at the first ``learn`` and saved with the policy.
 """
 
 from __future__ import annotations
@@ -37,7 +41,11 @@ class ImitationPolicy(BasePolicy):
     :param log_std_bounds: clamp of the Gaussian head's log standard deviation
     :param optimizer_class: the optimizer
     :param optimizer_kwargs: its keyword arguments (e.g. ``weight_decay``)
+    :param normalize_observations: standardise observations with the expert states' statistics
     """
+
+    OBS_STD_FLOOR = 1e-3
+    OBS_CLIP = 10.0
 
     def __init__(
         self,
@@ -49,6 +57,7 @@ class ImitationPolicy(BasePolicy):
         log_std_bounds: tuple[float, float] = (-5.0, 2.0),
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
+        normalize_observations: bool = False,
     ):
         super().__init__(
             observation_space,
@@ -62,11 +71,15 @@ class ImitationPolicy(BasePolicy):
         self.activation_fn = activation_fn
         self.log_std_bounds = tuple(float(b) for b in log_std_bounds)
         self.discrete = isinstance(action_space, spaces.Discrete)
+        self.normalize_observations = bool(normalize_observations)
         self._build(lr_schedule)
 
     def _build(self, lr_schedule: Schedule) -> None:
         self.features_extractor = self.make_features_extractor()
         n_in = self.features_extractor.features_dim
+        self.register_buffer("obs_mean", th.zeros(n_in))
+        self.register_buffer("obs_std", th.ones(n_in))
+        self.register_buffer("obs_stats_set", th.tensor(False))
         self.latent = nn.Sequential(*create_mlp(n_in, -1, self.net_arch, self.activation_fn))
         latent_dim = self.net_arch[-1] if self.net_arch else n_in
         if self.discrete:
@@ -85,15 +98,27 @@ class ImitationPolicy(BasePolicy):
             log_std_bounds=self.log_std_bounds,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
+            normalize_observations=self.normalize_observations,
         )
         # The features extractor is fixed (flatten): do not pass these on.
         for key in ("features_extractor_class", "features_extractor_kwargs", "normalize_images", "squash_output"):
             data.pop(key, None)
         return data
 
+    @th.no_grad()
+    def set_observation_stats(self, observations: th.Tensor) -> None:
+        """Mean and std (floored) of the expert states, used when ``normalize_observations``."""
+        x = observations.float().view(len(observations), -1)
+        self.obs_mean.copy_(x.mean(0))
+        self.obs_std.copy_(x.std(0, unbiased=False).clamp(min=self.OBS_STD_FLOOR))
+        self.obs_stats_set.fill_(True)
+
     # ------------------------------------------------------------------ heads
     def _latent(self, obs: th.Tensor) -> th.Tensor:
-        return self.latent(self.extract_features(obs, self.features_extractor))
+        features = self.extract_features(obs, self.features_extractor)
+        if self.normalize_observations:
+            features = ((features - self.obs_mean) / self.obs_std).clamp(-self.OBS_CLIP, self.OBS_CLIP)
+        return self.latent(features)
 
     def heads(self, obs: th.Tensor) -> tuple[th.Tensor, ...]:
         """The network's outputs: ``(logits,)`` for Discrete, ``(mean, log_std)`` for Box."""
