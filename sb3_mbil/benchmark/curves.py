@@ -170,10 +170,6 @@ def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: 
     return "\n".join(lines)
 
 
-__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "run_curve",
-           "run_curves"]
-
-
 def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None) -> None:
     """The Figure 4 layout: mean return vs gradient updates per env, a band of one std over seeds, the expert as a line."""
     import matplotlib
@@ -196,3 +192,7 @@ def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = N
         if expert and env in expert:
             ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
     finish_figure(fig, axes, envs, "gradient updates", path)
+
+
+__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "parse_variants",
+           "plot_curves", "run_curve", "run_curves"]
