@@ -11,3 +11,10 @@ python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants '{
   "bc": ["bc", {"weight_decay": 0.0}], "bc_wd1e-3": ["bc", {"weight_decay": 0.001}],
   "mbil": ["mbil", {}], "mbil_a0.1": ["mbil", {"alpha": 0.1}], "mbil_a0.01": ["mbil", {"alpha": 0.01}],
   "mbil_a0.001": ["mbil", {"alpha": 0.001}], "mbil_lr3e-4": ["mbil", {"learning_rate": 0.0003}]}'
+
+# Stage 2 (Hopper-v4): the policy's input standardised with the expert states' statistics
+# (policy_kwargs normalize_observations), for BC and for MBIL at alpha 1 and 0.01.
+NORM='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true}'
+python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
+  \"bc_norm\": [\"bc\", {\"weight_decay\": 0.0, $NORM}], \"bc_wd1e-3_norm\": [\"bc\", {\"weight_decay\": 0.001, $NORM}],
+  \"mbil_norm\": [\"mbil\", {$NORM}], \"mbil_a0.01_norm\": [\"mbil\", {\"alpha\": 0.01, $NORM}]}"
