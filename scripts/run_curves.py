@@ -28,6 +28,7 @@ def main(argv=None):
     p.add_argument("--n-trajectories", type=int, default=1)
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
+    p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
     p.add_argument("--markdown", default=None, help="also write the summary table (final return, drop from the best) here")
     p.add_argument("--address", default=None, help="Ray cluster address (default: local Ray)")
     p.add_argument("--num-cpus", type=int, default=None)
@@ -52,7 +53,7 @@ def main(argv=None):
         rows = [r for r in csv.DictReader(f) if r["env"] in a.envs and r["algo"] in variants]
     expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in a.envs}
     text = (f"Results from `{a.csv}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}); expert = mean return of "
-            f"the pool.\n\n" + curve_table(rows, expert))
+            f"the pool.\n\n" + curve_table(rows, expert, last=a.last))
     print(text)
     if a.markdown:
         write_text(a.markdown, text + "\n")

@@ -168,3 +168,14 @@ def test_flow_report_trains_and_reports_the_balance_split():
     bad = subprocess.run([sys.executable, "scripts/flow_report.py", "--env", "Hopper-v4", "--updates", "30", "10"], cwd=repo,
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "--updates: expected increasing" in bad.stderr
+
+
+def test_paired_table_compares_final_returns_on_shared_seeds():
+    from sb3_mbil.benchmark.curves import final_returns, paired_table
+
+    rows = [{"env": "E", "algo": a, "seed": s, "gradient_step": step, "mean_return": base + s + step / 1000}
+            for a, base in (("bc", 100.0), ("mbil", 90.0)) for s in (0, 1, 2) for step in (1000, 2000)]
+    rows += [{"env": "E", "algo": "mbil", "seed": 3, "gradient_step": 1000, "mean_return": 0.0}]  # no bc on seed 3
+    assert final_returns(rows, last=1)[("E", "bc")][1] == (103.0, 2000)
+    # mbil - bc = -10 on every shared seed: mean -10, standard error 0, below on 3 of 3
+    assert "| E | mbil | 3 | 94 | -10 +- 0 | 3 of 3 |" in paired_table(rows, "bc", last=1)

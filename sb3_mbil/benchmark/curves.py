@@ -144,29 +144,52 @@ def curve_summary(rows: list[dict]) -> dict[tuple[str, str, int], tuple[float, f
     return {k: (float(np.mean(v)), float(np.std(v)), len(v)) for k, v in groups.items()}
 
 
+def final_returns(rows: list[dict], last: int = 10) -> dict[tuple[str, str], dict[int, tuple[float, int]]]:
+    """(env, variant) -> {seed: (mean of its last ``last`` evaluations, its number of updates)}."""
+    per_seed: dict[tuple[str, str, int], list[tuple[int, float]]] = {}
+    for r in rows:
+        per_seed.setdefault((r["env"], r["algo"], int(r["seed"])), []).append((int(r["gradient_step"]), float(r["mean_return"])))
+    out: dict[tuple[str, str], dict[int, tuple[float, int]]] = {}
+    for (env, variant, seed), points in per_seed.items():
+        points.sort()
+        out.setdefault((env, variant), {})[seed] = (float(np.mean([ret for _, ret in points[-last:]])), points[-1][0])
+    return out
+
+
 def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: int = 10) -> str:
     """Markdown: per (env, variant) the final return (each seed's mean over its last ``last``
     evaluations, then mean +- std over seeds), its share of the expert's return, the best point of
     the seed-mean curve and the final minus the best (a late collapse shows as a large drop)."""
-    per_seed: dict[tuple[str, str, str], list[tuple[int, float]]] = {}
-    for r in rows:
-        per_seed.setdefault((r["env"], r["algo"], str(r["seed"])), []).append((int(r["gradient_step"]), float(r["mean_return"])))
     summary = curve_summary(rows)
     lines = [f"| env | variant | final return (last {last} evaluations) | final / expert | best point (updates) | final - best | seeds | updates |",
              "|---|---|---|---|---|---|---|---|"]
-    for env, variant in sorted({(e, v) for e, v, _ in per_seed}):
-        finals, n_updates = [], []
-        for (e, v, _), points in per_seed.items():
-            if (e, v) == (env, variant):
-                points.sort()
-                finals.append(np.mean([ret for _, ret in points[-last:]]))
-                n_updates.append(points[-1][0])
+    for (env, variant), by_seed in sorted(final_returns(rows, last).items()):
+        finals = [f for f, _ in by_seed.values()]
         curve = {step: m for (v, e, step), (m, _, _) in summary.items() if (e, v) == (env, variant)}
         best_step = max(curve, key=curve.get)
         final = float(np.mean(finals))
         share = f"{final / expert[env]:.2f}" if expert and env in expert else ""
         lines.append(f"| {env} | {variant} | {final:.0f} +- {np.std(finals):.0f} | {share} | {curve[best_step]:.0f} ({best_step}) | "
-                     f"{final - curve[best_step]:.0f} | {len(finals)} | {min(n_updates)} |")
+                     f"{final - curve[best_step]:.0f} | {len(finals)} | {min(n for _, n in by_seed.values())} |")
+    return "\n".join(lines)
+
+
+def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
+    """Markdown: each variant's final return minus the ``reference`` variant's on the same seeds (same
+    trajectory), mean +- standard error, and on how many seeds it is below."""
+    finals = final_returns(rows, last)
+    lines = [f"| env | variant | seeds | final return | minus {reference} | below on |", "|---|---|---|---|---|---|"]
+    for (env, variant), by_seed in sorted(finals.items()):
+        ref = finals.get((env, reference))
+        if ref is None or variant == reference:
+            continue
+        seeds = sorted(set(by_seed) & set(ref))
+        d = np.array([by_seed[s][0] - ref[s][0] for s in seeds])
+        if len(d) == 0:
+            continue
+        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+        lines.append(f"| {env} | {variant} | {len(d)} | {np.mean([by_seed[s][0] for s in seeds]):.0f} | {d.mean():.0f} +- {se:.0f} | "
+                     f"{int((d < 0).sum())} of {len(d)} |")
     return "\n".join(lines)
 
 
@@ -194,5 +217,5 @@ def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = N
     finish_figure(fig, axes, envs, "gradient updates", path)
 
 
-__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "parse_variants",
+__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "final_returns", "paired_table", "parse_variants",
            "plot_curves", "run_curve", "run_curves"]

@@ -1,0 +1,42 @@
+"""Summarise learning-curve CSVs (results/mujoco.csv, results/ablation.csv, results/tuning/mujoco.csv):
+the final return per (env, variant) and, with --paired-against, every variant's difference to one
+reference variant on the same seeds.
+
+    python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc
+"""
+
+import argparse
+import csv
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("csv", nargs="+")
+    p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
+    p.add_argument("--paired-against", default=None, help="reference variant of the paired differences")
+    p.add_argument("--markdown", default=None, help="also write the tables here")
+    a = p.parse_args(argv)
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.benchmark.curves import curve_table, paired_table
+    from sb3_mbil.benchmark.results import write_text
+
+    rows = []
+    for path in a.csv:
+        with open(path, newline="") as f:
+            rows += list(csv.DictReader(f))
+    if not rows:
+        p.error(f"csv: expected result rows, found none in {a.csv}")
+    envs = sorted({r["env"] for r in rows})
+    expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in envs}
+    commits = ", ".join(sorted({r["commit"] for r in rows}))
+    text = f"From {', '.join(f'`{c}`' for c in a.csv)} (commits: {commits}); expert = mean return of the pool.\n\n"
+    text += curve_table(rows, expert, last=a.last)
+    if a.paired_against:
+        text += "\n\n" + paired_table(rows, a.paired_against, last=a.last)
+    print(text)
+    if a.markdown:
+        write_text(a.markdown, text + "\n")
+
+
+if __name__ == "__main__":
+    main()
