@@ -178,4 +178,4 @@ def test_paired_table_compares_final_returns_on_shared_seeds():
     rows += [{"env": "E", "algo": "mbil", "seed": 3, "gradient_step": 1000, "mean_return": 0.0}]  # no bc on seed 3
     assert final_returns(rows, last=1)[("E", "bc")][1] == (103.0, 2000)
     # mbil - bc = -10 on every shared seed: mean -10, standard error 0, below on 3 of 3
-    assert "| E | mbil | 3 | 94 | -10 +- 0 | 3 of 3 |" in paired_table(rows, "bc", last=1)
+    assert "| E | mbil | 3 | 93 | -10 +- 0 | 3 of 3 |" in paired_table(rows, "bc", last=1)
