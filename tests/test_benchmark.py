@@ -81,6 +81,11 @@ def test_every_expert_env_has_tuned_settings(algo):
         assert isinstance(settings.get("policy_kwargs", {}), dict)  # the zoo's string form, evaluated
     assert tuned_settings(algo, "Walker2d-v4")["policy_kwargs"] == {"net_arch": [256, 256]}
     assert tuned_settings(algo, "Walker2d-v4")["bc_loss"] == "mse"
+    # an override in the zoo's string form is evaluated as rl_zoo3 does, with th in scope
+    import torch
+
+    kwargs = tuned_settings(algo, "Hopper-v4", {"policy_kwargs": "dict(optimizer_class=th.optim.AdamW)"})["policy_kwargs"]
+    assert kwargs == {"optimizer_class": torch.optim.AdamW}
 
 
 def test_append_keeps_an_existing_header(tmp_path):

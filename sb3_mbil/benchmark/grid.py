@@ -61,8 +61,11 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None)
         raise ValueError(f"env: expected an entry for {env} in {hyperparams_file(algo)}, found entries {sorted(table)}")
     settings = {k: v for k, v in table[env].items() if k not in DATA_KEYS and k != "policy"}
     settings.update(overrides or {})
-    if isinstance(settings.get("policy_kwargs"), str):  # as rl_zoo3 reads it: "dict(net_arch=[256, 256])"
-        settings["policy_kwargs"] = eval(settings["policy_kwargs"], {"dict": dict})
+    if isinstance(settings.get("policy_kwargs"), str):
+        # as rl_zoo3 reads it ("dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"), with th and nn in scope
+        import torch
+
+        settings["policy_kwargs"] = eval(settings["policy_kwargs"], {"dict": dict, "th": torch, "nn": torch.nn})
     return settings
 
 
