@@ -18,3 +18,11 @@ NORM='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true}'
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
   \"bc_norm\": [\"bc\", {\"weight_decay\": 0.0, $NORM}], \"bc_wd1e-3_norm\": [\"bc\", {\"weight_decay\": 0.001, $NORM}],
   \"mbil_norm\": [\"mbil\", {$NORM}], \"mbil_a0.01_norm\": [\"mbil\", {\"alpha\": 0.01, $NORM}]}"
+
+# Stage 3 (Hopper-v4): BC with decoupled weight decay (AdamW; torch multiplies the decay by the learning
+# rate, so weight_decay 1.0 at lr 1e-3 shrinks the weights by 1e-3 a step, as TF-Addons' AdamW(weight_decay=1e-3)
+# in the ValueDICE code base), with and without standardised inputs.
+python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants '{
+  "bc_adamw": ["bc", {"weight_decay": 1.0, "policy_kwargs": "dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"}],
+  "bc_adamw_norm": ["bc", {"weight_decay": 1.0,
+                     "policy_kwargs": "dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW, normalize_observations=True)"}]}'
