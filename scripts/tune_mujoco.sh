@@ -21,7 +21,7 @@ python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
 
 # Stage 3 (Hopper-v4): BC with decoupled weight decay (AdamW; torch multiplies the decay by the learning
 # rate, so weight_decay 1.0 at lr 1e-3 shrinks the weights by 1e-3 a step, as TF-Addons' AdamW(weight_decay=1e-3)
-# in the ValueDICE code base), with and without standardised inputs.
+# does, the optimizer of google-research's policy_eval BC), with and without standardised inputs.
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants '{
   "bc_adamw": ["bc", {"weight_decay": 1.0, "policy_kwargs": "dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"}],
   "bc_adamw_norm": ["bc", {"weight_decay": 1.0,
