@@ -221,6 +221,9 @@ def test_balance_diagnostics_split_the_residual(data):
     assert d["mean_shift_nats"] == pytest.approx(float(q.mean()), rel=1e-4) and d["mean_shift_nats"] >= 0
     assert d["residual_mse_mean_on_action"] == pytest.approx(float((target - log_pi - q).pow(2).mean()), rel=1e-4)
     assert d["n_tuples"] == len(target) and 0 <= d["unreachable_targets"] <= len(target)
+    assert 0.0 <= d["log_std_at_bound"] <= 1.0
+    with pytest.raises(ValueError, match="log_std_bounds"):
+        make(MBIL, "Pendulum-v1", data["Pendulum-v1"], policy_kwargs={"log_std_bounds": (2.0, -5.0)})
     assert d["bc_mse"] > 0
     discrete = make(MBIL, "CartPole-v1", data["CartPole-v1"]).learn(5).balance_diagnostics()
     assert "mean_shift_nats" not in discrete and discrete["residual_mse"] >= 0

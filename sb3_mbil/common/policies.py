@@ -70,6 +70,8 @@ class ImitationPolicy(BasePolicy):
         self.net_arch = [64, 64] if net_arch is None else list(net_arch)
         self.activation_fn = activation_fn
         self.log_std_bounds = tuple(float(b) for b in log_std_bounds)
+        if len(self.log_std_bounds) != 2 or not self.log_std_bounds[0] < self.log_std_bounds[1]:
+            raise ValueError(f"log_std_bounds: expected (low, high) with low < high, found {log_std_bounds!r}")
         self.discrete = isinstance(action_space, spaces.Discrete)
         self.normalize_observations = bool(normalize_observations)
         self._build(lr_schedule)

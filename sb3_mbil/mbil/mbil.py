@@ -279,7 +279,8 @@ class MBIL(OfflineAlgorithm):
         expert's action. ``mean_shift_nats`` is E[q] (the part moved by the mean),
         ``residual_mse_mean_on_action`` the balance loss if the mean sat on a' (std alone),
         ``unreachable_targets`` the tuples whose t is below the lowest log pi_max the log-std bound
-        allows (only a moved mean reaches them) and ``bc_mse`` the mean's squared error on the (s, a)
+        allows (only a moved mean reaches them), ``log_std_at_bound`` the share of log-std outputs at a
+        bound (with the default hard clamp they get no gradient there) and ``bc_mse`` the mean's squared error on the (s, a)
         pairs (the MSE behaviour-cloning term).
         """
         tup = self._tuples()
@@ -304,6 +305,8 @@ class MBIL(OfflineAlgorithm):
             mean_shift_nats=float((log_pi_max - log_pi).mean()),
             residual_mse_mean_on_action=float((target - log_pi_max).pow(2).mean()),
             unreachable_targets=int((target < lowest).sum()),
+            log_std_at_bound=float(((log_std <= self.policy.log_std_bounds[0] + 1e-3)
+                                    | (log_std >= self.policy.log_std_bounds[1] - 1e-3)).float().mean()),
             bc_mse=float((bc_mean - self._to_tensor(pairs["actions"], "act").view_as(bc_mean)).pow(2).mean()),
         )
         return out
