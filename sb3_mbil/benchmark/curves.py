@@ -217,5 +217,5 @@ def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = N
     finish_figure(fig, axes, envs, "gradient updates", path)
 
 
-__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "final_returns", "paired_table", "parse_variants",
-           "plot_curves", "run_curve", "run_curves"]
+__all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "final_returns",
+           "paired_table", "parse_variants", "plot_curves", "run_curve", "run_curves"]
