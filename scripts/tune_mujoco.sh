@@ -1,16 +1,19 @@
 #!/usr/bin/env bash
 # MuJoCo tuning on seeds 100-102 (never in results/mujoco.csv, which uses seeds 0-4): one trajectory,
 # 5e4 updates, 10 episodes every 5000 updates. One CSV, resumable: rerun to finish.
-#   bash scripts/tune_mujoco.sh            # then: python scripts/run_curves.py ... --csv results/tuning/mujoco.csv
+#   bash scripts/tune_mujoco.sh
+#   python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc_norm --markdown results/tuning/MUJOCO.md
 # Stage 1 (Hopper-v4): the weight of the balance term and a smaller learning rate for MBIL, beside BC.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CSV=results/tuning/mujoco.csv
 COMMON="--seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --csv $CSV ${CURVE_RUNNER:---local}"
-python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants '{
-  "bc": ["bc", {"weight_decay": 0.0}], "bc_wd1e-3": ["bc", {"weight_decay": 0.001}],
-  "mbil": ["mbil", {}], "mbil_a0.1": ["mbil", {"alpha": 0.1}], "mbil_a0.01": ["mbil", {"alpha": 0.01}],
-  "mbil_a0.001": ["mbil", {"alpha": 0.001}], "mbil_lr3e-4": ["mbil", {"learning_rate": 0.0003}]}'
+# Raw inputs (pinned: the zoo entries standardise them since stage 2).
+RAW='"policy_kwargs": {"net_arch": [256, 256]}'
+python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
+  \"bc\": [\"bc\", {\"weight_decay\": 0.0, $RAW}], \"bc_wd1e-3\": [\"bc\", {\"weight_decay\": 0.001, $RAW}],
+  \"mbil\": [\"mbil\", {$RAW}], \"mbil_a0.1\": [\"mbil\", {\"alpha\": 0.1, $RAW}], \"mbil_a0.01\": [\"mbil\", {\"alpha\": 0.01, $RAW}],
+  \"mbil_a0.001\": [\"mbil\", {\"alpha\": 0.001, $RAW}], \"mbil_lr3e-4\": [\"mbil\", {\"learning_rate\": 0.0003, $RAW}]}"
 
 # Stage 2 (Hopper-v4): the policy's input standardised with the expert states' statistics
 # (policy_kwargs normalize_observations), for BC and for MBIL at alpha 1 and 0.01.
