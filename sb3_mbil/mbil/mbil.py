@@ -280,8 +280,8 @@ class MBIL(OfflineAlgorithm):
         ``residual_mse_mean_on_action`` the balance loss if the mean sat on a' (std alone),
         ``unreachable_targets`` the tuples whose t is below the lowest log pi_max the log-std bound
         allows (only a moved mean reaches them), ``log_std_at_bound`` the share of log-std outputs at a
-        bound (with the default hard clamp they get no gradient there) and ``bc_mse`` the mean's squared error on the (s, a)
-        pairs (the MSE behaviour-cloning term).
+        bound (the clamp gives them no gradient there) and ``bc_mse`` the mean's squared error on the
+        (s, a) pairs (the MSE behaviour-cloning term).
         """
         tup = self._tuples()
         target = self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
