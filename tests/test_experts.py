@@ -186,6 +186,9 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     assert json.loads((folder / "progress.json").read_text())["steps_before"]["CartPole-v1_2"] == 200
     log = folder.with_suffix(".log").read_text()
     assert "Loading pretrained agent" in log and "Loading replay buffer" in log
+    # the continuation trains from its first step (no second warm-up of random actions)
+    assert DQN.load(run2 / "CartPole-v1.zip").learning_starts == 0
+    assert DQN.load(run1 / "rl_model_200_steps.zip").learning_starts > 0
     assert expert.source == "zoo:dqn seed=0"
 
 

@@ -237,8 +237,13 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         if stop_at_return is not None:
             callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": {
                 "min_return": float(stop_at_return), "eval_freq": eval_freq}})
-        if callbacks:
-            cmd += ["--hyperparams", f"callback:{callbacks!r}"]
+        hyperparams = [f"callback:{callbacks!r}"] if callbacks else []
+        if resume is not None and _off_policy(algo):
+            # rl_zoo3's -i restarts the step count, so the zoo's learning_starts would spend the
+            # first steps of every continuation on random actions without gradient updates
+            hyperparams.append("learning_starts:0")
+        if hyperparams:
+            cmd += ["--hyperparams", *hyperparams]
         progress["steps_before"][next_run] = done
         _write_json(progress_file, progress)
         if verbose:
@@ -252,6 +257,13 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         raise RuntimeError(f"rl_zoo3 training left no best_model.zip in {runs_dir}; see {folder.with_suffix('.log')}")
     return load_expert_file(best / "best_model.zip", env_id, algo, best / env_id / "vecnormalize.pkl",
                             source=f"zoo:{algo} seed={seed}")
+
+
+def _off_policy(algo: str) -> bool:
+    from rl_zoo3.utils import ALGOS
+    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+    return algo in ALGOS and issubclass(ALGOS[algo], OffPolicyAlgorithm)
 
 
 def _run_ids(runs_dir: Path, env_id: str) -> list[int]:
