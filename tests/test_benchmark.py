@@ -97,6 +97,30 @@ def test_append_keeps_an_existing_header(tmp_path):
     assert rows_of(out) == [{"a": "1", "b": "2"}, {"a": "3", "b": "4"}]
 
 
+def test_append_rows_lands_a_runs_rows_together(tmp_path, monkeypatch):
+    """A run's rows are written in one go: a failure part way through leaves the file as it was."""
+    import csv
+
+    from sb3_mbil.benchmark.results import append_rows
+
+    out = tmp_path / "r.csv"
+    append_rows(out, [{"a": 0, "b": 0}], ["a", "b"])
+    real = csv.DictWriter.writerow
+
+    def fail_on_third(self, row):
+        if row["a"] == 3:
+            raise OSError("interrupted")
+        return real(self, row)
+
+    monkeypatch.setattr(csv.DictWriter, "writerow", fail_on_third)
+    with pytest.raises(OSError):
+        append_rows(out, [{"a": i, "b": -i} for i in range(1, 5)], ["a", "b"])
+    monkeypatch.undo()
+    assert rows_of(out) == [{"a": "0", "b": "0"}]
+    append_rows(out, [{"a": i, "b": -i} for i in range(1, 4)], ["a", "b"])
+    assert rows_of(out) == [{"a": str(i), "b": str(-i)} for i in range(4)]
+
+
 def test_main_job_script_runs(tmp_path):
     import subprocess
     import sys

@@ -2,7 +2,7 @@
 
 One run = (variant, env, seed): train a variant (an algorithm plus settings) on N expert
 trajectories and score its deterministic policy on ``n_episodes`` episodes every ``eval_every``
-gradient updates. All rows of a run are appended at once when it finishes, so an interrupted set of
+gradient updates. All rows of a run are appended in one write when it finishes, so an interrupted set of
 runs resumes by skipping finished (variant, env, seed).
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
-from sb3_mbil.benchmark.results import append_row, finished_keys
+from sb3_mbil.benchmark.results import append_rows, finished_keys
 
 CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit"]
 CURVE_KEY = ("algo", "env", "seed")
@@ -111,8 +111,7 @@ def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv
     args = (variants, n_updates, eval_every, n_episodes, n_trajectories, pool, commit, extra_settings)
     if not use_ray:
         for run in todo:
-            for row in run_curve(run, *args):
-                append_row(csv_path, row, CURVE_COLUMNS)
+            append_rows(csv_path, run_curve(run, *args), CURVE_COLUMNS)
         return len(todo)
     import ray
 
@@ -128,8 +127,7 @@ def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv
         while futures:
             ready, _ = ray.wait(list(futures), num_returns=1)
             futures.pop(ready[0])
-            for row in ray.get(ready[0]):
-                append_row(csv_path, row, CURVE_COLUMNS)
+            append_rows(csv_path, ray.get(ready[0]), CURVE_COLUMNS)
             n += 1
     finally:
         ray.shutdown()

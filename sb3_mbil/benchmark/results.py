@@ -22,18 +22,30 @@ def append_row(path: str | os.PathLike, row: dict, columns: list[str]) -> None:
 
     An existing file keeps its own header: columns it lacks are left out of the new line.
     """
+    append_rows(path, [row], columns)
+
+
+def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -> None:
+    """Append complete lines in one write under an exclusive lock, so a run's rows land together
+    (a run interrupted while saving leaves none of them, and is redone on resume)."""
+    import io
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "a+", newline="") as f:
         fcntl.flock(f, fcntl.LOCK_EX)
         try:
+            buf = io.StringIO()
             if f.tell() == 0:
-                csv.writer(f).writerow(columns)
+                csv.writer(buf).writerow(columns)
             else:
                 f.seek(0)
                 columns = next(csv.reader(f))
                 f.seek(0, os.SEEK_END)
-            csv.DictWriter(f, fieldnames=columns, extrasaction="ignore").writerow({c: row.get(c, "") for c in columns})
+            writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
+            for row in rows:
+                writer.writerow({c: row.get(c, "") for c in columns})
+            f.write(buf.getvalue())
             f.flush()
             os.fsync(f.fileno())
         finally:
