@@ -25,6 +25,8 @@ def main(argv=None):
     parser.add_argument("--algo", default=None, help="RL Zoo algorithm of the expert (default: the paper's for the env)")
     parser.add_argument("--min-return", type=float, default=None, help="acceptance threshold (default: per env)")
     parser.add_argument("--eval-episodes", type=int, default=100, help="episodes of the acceptance test")
+    parser.add_argument("--sampled-actions", action="store_true",
+                        help="record actions sampled from the expert's policy instead of its deterministic ones")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -32,7 +34,7 @@ def main(argv=None):
 
     demos, path = generate_demonstrations(
         args.env, args.n_trajectories, args.source, args.seed, args.out, args.algo, args.min_return, args.eval_episodes,
-        command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),
+        sampled_actions=args.sampled_actions, command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),
     )
     r, n = demos.episode_returns, demos.episode_lengths
     print(f"expert {demos.metadata['expert']['source']}: return {r.mean():.1f} +- {r.std():.1f}, "

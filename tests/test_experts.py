@@ -166,6 +166,26 @@ def test_to_imitation_without_imitation_says_how_to_install():
         assert type(converted[0]).__module__.startswith("imitation")
 
 
+def test_sampled_actions_pool(tmp_path):
+    """--sampled-actions records the stochastic expert's actions, reproducibly for a seed, and says so."""
+    from stable_baselines3 import SAC
+
+    model_zip = tmp_path / "sac-Pendulum-v1.zip"
+    SAC("MlpPolicy", "Pendulum-v1", seed=0).save(model_zip)
+    kw = dict(algo="sac", min_return=-1e9, n_eval_episodes=1, progress=False)
+    det, _ = generate_demonstrations("Pendulum-v1", 2, str(model_zip), seed=3, **kw)
+    sampled, path = generate_demonstrations("Pendulum-v1", 2, str(model_zip), seed=3, out=tmp_path / "s.npz",
+                                            sampled_actions=True, **kw)
+    again, _ = generate_demonstrations("Pendulum-v1", 2, str(model_zip), seed=3, sampled_actions=True, **kw)
+    assert det.metadata["expert_actions"] == "deterministic"
+    assert load_demonstrations(path).metadata["expert_actions"] == "sampled"
+    np.testing.assert_array_equal(det[0].observations[0], sampled[0].observations[0])  # same resets
+    assert not np.allclose(det[0].actions, sampled[0].actions)
+    np.testing.assert_array_equal(sampled[0].actions, again[0].actions)
+    space = gym.make("Pendulum-v1").action_space
+    assert np.all(sampled[0].actions >= space.low) and np.all(sampled[0].actions <= space.high)
+
+
 def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypatch):
     """An interrupted run (checkpoint + replay buffer, no final model) continues with rl_zoo3's -i."""
     import json

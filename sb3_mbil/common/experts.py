@@ -83,12 +83,15 @@ class Expert:
     algo: str
     source: str
     vec_normalize: VecNormalize | None = None
+    #: act with the policy's mode (True) or sample from it (False: a stochastic expert whose
+    #: log pi_D(a' | s') is finite, as the Markov balance equation assumes)
+    deterministic: bool = True
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         obs = np.asarray(observations)
         if self.vec_normalize is not None:
             obs = self.vec_normalize.normalize_obs(obs)
-        actions, _ = self.model.predict(obs, deterministic=True)
+        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
         return actions
 
 
@@ -451,11 +454,21 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
 
 def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub", seed: int = 0, out: str | os.PathLike | None = None,
                             algo: str | None = None, min_return: float | None = None, n_eval_episodes: int = 100,
-                            progress: bool = True, command: str | None = None) -> tuple[Demonstrations, Path | None]:
-    """Get an accepted expert, roll it out ``n_trajectories`` times (episode i seeded ``seed + i``), save atomically."""
+                            progress: bool = True, command: str | None = None,
+                            sampled_actions: bool = False) -> tuple[Demonstrations, Path | None]:
+    """Get an accepted expert, roll it out ``n_trajectories`` times (episode i seeded ``seed + i``), save atomically.
+
+    :param sampled_actions: record actions sampled from the expert's policy (torch seeded with
+        ``seed``) instead of its deterministic actions; the acceptance test stays deterministic.
+    """
     if not isinstance(n_trajectories, int) or n_trajectories < 1:
         raise ValueError(f"n_trajectories: expected a positive integer, found {n_trajectories!r}")
     expert, record = get_expert(env_id, source, algo, seed, min_return, n_eval_episodes)
+    if sampled_actions:
+        import torch as th
+
+        th.manual_seed(seed)
+        expert.deterministic = False
     demos = rollout(expert, n_trajectories, seed, progress=progress)
     returns, lengths = demos.episode_returns, demos.episode_lengths
     import gymnasium
@@ -471,6 +484,7 @@ def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub
         "mean_return": float(returns.mean()),
         "std_return": float(returns.std()),
         "mean_length": float(lengths.mean()),
+        "expert_actions": "sampled" if sampled_actions else "deterministic",
         "command": command,
         "versions": {"sb3_mbil": __version__, "gymnasium": gymnasium.__version__, "stable_baselines3": stable_baselines3.__version__},
         "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
