@@ -7,6 +7,8 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
         --csv results/ablation.csv --plot results/ablation.png
     python scripts/run_curves.py --variants '{"mbil_a0.01": ["mbil", {"alpha": 0.01}]}' --envs Hopper-v4 \\
         --seeds 100-102 --updates 50000 --eval-every 5000 --csv results/tuning/mujoco.csv
+    python scripts/run_curves.py --figure 4 --envs Hopper-v4 --pool hopper-sampled.npz --seeds 100-102 \
+        --updates 50000 --eval-every 5000 --csv results/tuning/mujoco_sampled.csv    # another pool of the env
 """
 
 import argparse
@@ -26,6 +28,9 @@ def main(argv=None):
     p.add_argument("--eval-every", type=int, default=500)
     p.add_argument("--episodes", type=int, default=10)
     p.add_argument("--n-trajectories", type=int, default=1)
+    p.add_argument("--pool", default=None,
+                   help="draw the trajectories from this pool (.npz path or shipped name) instead of the env's shipped pool; "
+                        "one env only; recorded in the settings column")
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
     p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
@@ -46,7 +51,16 @@ def main(argv=None):
             p.error(str(e))
     else:
         variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
-    n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories,
+    if a.pool is not None:
+        if len(a.envs) != 1:
+            p.error(f"--pool: expected one env, found {len(a.envs)} ({' '.join(a.envs)})")
+        try:
+            pool_env = load_demonstrations(a.pool).metadata.get("env_id")
+        except (ValueError, FileNotFoundError) as e:
+            p.error(f"--pool: {e}")
+        if pool_env != a.envs[0]:
+            p.error(f"--pool: expected demonstrations of {a.envs[0]}, found a pool of {pool_env} ({a.pool})")
+    n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories, pool=a.pool,
                    use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
     print(f"{n} runs done now; results in {a.csv}")
     with open(a.csv, newline="") as f:

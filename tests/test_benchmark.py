@@ -208,3 +208,30 @@ def test_paired_table_compares_final_returns_on_shared_seeds():
     assert final_returns(rows, last=1)[("E", "bc")][1] == (103.0, 2000)
     # mbil - bc = -10 on every shared seed: mean -10, standard error 0, below on 3 of 3
     assert "| E | mbil | 3 | 93 | -10 +- 0 | 3 of 3 |" in paired_table(rows, "bc", last=1)
+
+
+def test_run_curves_on_another_pool_of_the_env(tmp_path):
+    """--pool draws from the given pool, records it in the settings column, and refuses another env's pool."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from sb3_mbil import load_demonstrations
+
+    repo = Path(__file__).resolve().parent.parent
+    pool = tmp_path / "cartpole-small.npz"
+    load_demonstrations("CartPole-v1").sample(3, seed=0).save(pool)
+    out = tmp_path / "curves.csv"
+    cmd = [sys.executable, "scripts/run_curves.py", "--variants", '{"bc": ["bc", {}]}', "--seeds", "0", "--updates", "40",
+           "--eval-every", "20", "--episodes", "2", "--csv", str(out), "--local"]
+    ok = subprocess.run(cmd + ["--envs", "CartPole-v1", "--pool", str(pool)], cwd=repo, capture_output=True, text=True,
+                        timeout=300)
+    assert ok.returncode == 0, ok.stderr[-3000:]
+    rows = rows_of(out)
+    assert len(rows) == 2 and all(f"('expert_pool', '{pool}')" in r["settings"] for r in rows)
+    wrong = subprocess.run(cmd + ["--envs", "Acrobot-v1", "--pool", str(pool)], cwd=repo, capture_output=True, text=True,
+                           timeout=300)
+    assert wrong.returncode == 2 and "expected demonstrations of Acrobot-v1, found a pool of CartPole-v1" in wrong.stderr
+    two = subprocess.run(cmd + ["--envs", "CartPole-v1", "Acrobot-v1", "--pool", str(pool)], cwd=repo, capture_output=True,
+                         text=True, timeout=300)
+    assert two.returncode == 2 and "expected one env" in two.stderr

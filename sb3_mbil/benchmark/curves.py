@@ -95,8 +95,9 @@ def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_
     scorer = _Scorer(run.env, eval_every, n_episodes, seed=1_000_000 + 1000 * run.seed)
     model.learn(n_updates, callback=scorer)
     commit = commit or git_commit()
+    recorded = {"algo": algo, **settings, **({"expert_pool": pool} if pool else {})}
     base = {"algo": run.variant, "env": run.env, "seed": run.seed, "n_episodes": n_episodes,
-            "n_trajectories": n_trajectories, "settings": repr(sorted({"algo": algo, **settings}.items())), "commit": commit}
+            "n_trajectories": n_trajectories, "settings": repr(sorted(recorded.items())), "commit": commit}
     return [{**base, "gradient_step": step, "mean_return": ret} for step, ret in scorer.points]
 
 
