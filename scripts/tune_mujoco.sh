@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # MuJoCo tuning on seeds 100-102 (never in results/mujoco.csv, which uses seeds 0-4): one trajectory,
-# 5e4 updates, 10 episodes every 5000 updates. One CSV, resumable: rerun to finish.
+# 5e4 updates, 10 episodes every 5000 updates. One CSV, resumable: a rerun skips the finished runs.
 #   bash scripts/tune_mujoco.sh
 #   python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc_norm --markdown results/tuning/MUJOCO.md
 # Stage 1 (Hopper-v4): the weight of the balance term and a smaller learning rate for MBIL, beside BC.
@@ -29,3 +29,12 @@ python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants '{
   "bc_adamw": ["bc", {"weight_decay": 1.0, "policy_kwargs": "dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"}],
   "bc_adamw_norm": ["bc", {"weight_decay": 1.0,
                      "policy_kwargs": "dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW, normalize_observations=True)"}]}'
+
+# Stage 4 (Hopper-v4): a pool of the expert's sampled actions (SAC's stochastic policy) instead of its
+# deterministic ones, so that log pi_D(a' | s') in the balance target is finite; BC and MBIL at the zoo
+# settings. The pool is regenerated from the zoo expert (trained, or reused from SB3_MBIL_CACHE).
+SAMPLED=results/tuning/Hopper-v4-sampled.npz
+[ -f $SAMPLED ] || python scripts/generate_expert_data.py --env Hopper-v4 --n-trajectories 50 --source zoo --seed 0 \
+    --sampled-actions --out $SAMPLED
+python scripts/run_curves.py --envs Hopper-v4 --pool $SAMPLED $COMMON --variants '{
+  "bc_norm_sampled": ["bc", {"weight_decay": 0.0}], "mbil_norm_sampled": ["mbil", {}]}'
