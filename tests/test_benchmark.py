@@ -159,6 +159,22 @@ def test_curve_table_reports_final_return_and_late_drop():
     assert "| E | bc | 200 +- 0 | 0.20 | 900 (1000) | -701 | 2 | 2000 |" in text
 
 
+def test_curve_plot_keeps_each_variants_colour_across_panels(tmp_path):
+    """A panel that lacks a variant must not shift the colours of the others; the legend lists every variant."""
+    from sb3_mbil.benchmark.curves import plot_curves
+
+    panels = {"A": ("bc", "mbil"), "B": ("bc", "bc_wd1e-3", "mbil")}
+    rows = [{"env": env, "algo": v, "seed": 0, "gradient_step": step, "mean_return": float(step)}
+            for env, variants in panels.items() for v in variants for step in (500, 1000)]
+    fig = plot_curves(rows, str(tmp_path / "curves.png"), {"A": 1.0, "B": 1.0})
+    assert (tmp_path / "curves.png").stat().st_size > 0
+    colours = [{line.get_label(): line.get_color() for line in ax.get_lines()} for ax in fig.axes]
+    assert colours[0]["mbil"] == colours[1]["mbil"] and colours[0]["bc"] == colours[1]["bc"]
+    assert len({colours[1][v] for v in panels["B"]}) == 3
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert sorted(legend) == ["bc", "bc_wd1e-3", "expert", "mbil"]
+
+
 def test_measure_speed_reports_fit_and_update_times(cartpole_data):
     from sb3_mbil.speed import measure_speed
 

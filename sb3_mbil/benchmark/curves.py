@@ -192,28 +192,31 @@ def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
     return "\n".join(lines)
 
 
-def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None) -> None:
-    """The Figure 4 layout: mean return vs gradient updates per env, a band of one std over seeds, the expert as a line."""
+def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = None):
+    """The Figure 4 layout: mean return vs gradient updates per env, a band of one std over seeds, the expert as a
+    line; each variant has one colour in every panel. Returns the figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sb3_mbil.benchmark.report import finish_figure
+    from sb3_mbil.benchmark.report import finish_figure, variant_colors
 
     summary = curve_summary(rows)
     envs = sorted({k[1] for k in summary})
+    colors = variant_colors(k[0] for k in summary)
     fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 4), squeeze=False)
     for ax, env in zip(axes[0], envs):
         for variant in sorted({k[0] for k in summary if k[1] == env}):
             steps = sorted(k[2] for k in summary if k[0] == variant and k[1] == env)
             m = np.array([summary[(variant, env, s)][0] for s in steps])
             sd = np.array([summary[(variant, env, s)][1] for s in steps])
-            ax.plot(steps, m, label=variant)
-            ax.fill_between(steps, m - sd, m + sd, alpha=0.2)
+            ax.plot(steps, m, label=variant, color=colors[variant])
+            ax.fill_between(steps, m - sd, m + sd, alpha=0.2, color=colors[variant])
         if expert and env in expert:
             ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
     finish_figure(fig, axes, envs, "gradient updates", path)
+    return fig
 
 
 __all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "final_returns",

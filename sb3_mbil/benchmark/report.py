@@ -97,7 +97,7 @@ def aggregate(rows, reps: int = 2000) -> dict[str, dict[str, tuple[float, float,
     return {a: {"iqm": (point[a][0], ci[a][0, 0], ci[a][1, 0]), "mean": (point[a][1], ci[a][0, 1], ci[a][1, 1])} for a in scores}
 
 
-def plot(rows, path: str) -> None:
+def plot(rows, path: str):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -106,6 +106,7 @@ def plot(rows, path: str) -> None:
     g = grouped(rows)
     envs = sorted({r["env"] for r in rows})
     algos = sorted({r["algo"] for r in rows})
+    colors = variant_colors(algos)
     expert = expert_returns(envs)
     fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 4), squeeze=False)
     for ax, env in zip(axes[0], envs):
@@ -115,21 +116,31 @@ def plot(rows, path: str) -> None:
                 continue
             m = np.array([g[(algo, env, n)].mean() for n in ns])
             se = np.array([g[(algo, env, n)].std(ddof=1) / np.sqrt(len(g[(algo, env, n)])) if len(g[(algo, env, n)]) > 1 else 0.0 for n in ns])
-            ax.plot(ns, m, marker="o", label=algo.upper())
-            ax.fill_between(ns, m - 1.96 * se, m + 1.96 * se, alpha=0.2)
+            ax.plot(ns, m, marker="o", label=algo.upper(), color=colors[algo])
+            ax.fill_between(ns, m - 1.96 * se, m + 1.96 * se, alpha=0.2, color=colors[algo])
         ax.axhline(expert[env], color="k", ls="--", lw=1, label="expert")
         if env in RANDOM_RETURN:
             ax.axhline(RANDOM_RETURN[env], color="gray", ls=":", lw=1, label="random")
     finish_figure(fig, axes, envs, "expert trajectories", path)
+    return fig
+
+
+def variant_colors(names) -> dict[str, str]:
+    """One colour per algorithm or variant, the same in every panel (even where a panel lacks some)."""
+    return {name: f"C{i % 10}" for i, name in enumerate(sorted(set(names)))}
 
 
 def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
-    """Titles, labels, legend; write the figure to ``path``."""
+    """Titles, labels, one legend of every line in any panel; write the figure to ``path``."""
     for ax, env in zip(axes[0], envs):
         ax.set_title(env)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("average return")
-    axes[0][0].legend()
+    legend: dict[str, object] = {}
+    for ax in axes[0]:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            legend.setdefault(label, handle)
+    axes[0][0].legend(list(legend.values()), list(legend))
     fig.tight_layout()
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     fig.savefig(path, dpi=120)
