@@ -8,7 +8,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
     python scripts/run_curves.py --variants '{"mbil_a0.01": ["mbil", {"alpha": 0.01}]}' --envs Hopper-v4 \\
         --seeds 100-102 --updates 50000 --eval-every 5000 --csv results/tuning/mujoco.csv
     python scripts/run_curves.py --figure 4 --envs Hopper-v4 --pool hopper-sampled.npz --seeds 100-102 \
-        --updates 50000 --eval-every 5000 --csv results/tuning/mujoco_sampled.csv    # another pool of the env
+        --updates 50000 --eval-every 5000 --csv results/tuning/mujoco_sampled.csv    # another pool of the env: use its own CSV
 """
 
 import argparse
@@ -29,7 +29,7 @@ def main(argv=None):
     p.add_argument("--episodes", type=int, default=10)
     p.add_argument("--n-trajectories", type=int, default=1)
     p.add_argument("--pool", default=None,
-                   help="draw the trajectories from this pool (.npz path or shipped name) instead of the env's shipped pool; "
+                   help="draw the trajectories from this pool (.npz path or shipped name) instead of the env's shipped pool (a CSV of its own: runs resume by variant, env and seed); "
                         "one env only; recorded in the settings column")
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
@@ -65,9 +65,12 @@ def main(argv=None):
     print(f"{n} runs done now; results in {a.csv}")
     with open(a.csv, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["env"] in a.envs and r["algo"] in variants]
-    expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in a.envs}
+    if a.pool is not None:  # only this pool's runs, against this pool's expert return
+        rows = [r for r in rows if f"('expert_pool', {a.pool!r})" in r["settings"]]
+    expert = {e: float(load_demonstrations(a.pool or e).episode_returns.mean()) for e in a.envs}
+    experts = ", ".join(f"{e} {v:.1f}" for e, v in expert.items())
     text = (f"Results from `{a.csv}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}); expert = mean return of "
-            f"the pool.\n\n" + curve_table(rows, expert, last=a.last))
+            f"the pool {a.pool or '(shipped)'}: {experts}.\n\n" + curve_table(rows, expert, last=a.last))
     print(text)
     if a.markdown:
         write_text(a.markdown, text + "\n")

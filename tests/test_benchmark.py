@@ -245,6 +245,9 @@ def test_run_curves_on_another_pool_of_the_env(tmp_path):
     assert ok.returncode == 0, ok.stderr[-3000:]
     rows = rows_of(out)
     assert len(rows) == 2 and all(f"('expert_pool', '{pool}')" in r["settings"] for r in rows)
+    # the table's expert is the given pool's mean return, not the shipped pool's
+    mean = load_demonstrations(str(pool)).episode_returns.mean()
+    assert f"expert = mean return of the pool {pool}: CartPole-v1 {mean:.1f}." in ok.stdout
     wrong = subprocess.run(cmd + ["--envs", "Acrobot-v1", "--pool", str(pool)], cwd=repo, capture_output=True, text=True,
                            timeout=300)
     assert wrong.returncode == 2 and "expected demonstrations of Acrobot-v1, found a pool of CartPole-v1" in wrong.stderr
