@@ -7,7 +7,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
         --csv results/ablation.csv --plot results/ablation.png
     python scripts/run_curves.py --variants '{"mbil_a0.01": ["mbil", {"alpha": 0.01}]}' --envs Hopper-v4 \\
         --seeds 100-102 --updates 50000 --eval-every 5000 --csv results/tuning/mujoco.csv
-    python scripts/run_curves.py --figure 4 --envs Hopper-v4 --pool hopper-sampled.npz --seeds 100-102 \
+    python scripts/run_curves.py --figure 4 --envs Hopper-v4 --pool hopper-sampled.npz --seeds 100-102 \\
         --updates 50000 --eval-every 5000 --csv results/tuning/mujoco_sampled.csv    # another pool of the env: use its own CSV
 """
 
