@@ -1,8 +1,9 @@
 """Summarise learning-curve CSVs (results/mujoco.csv, results/ablation.csv, results/tuning/mujoco.csv):
 the final return per (env, variant) and, with --paired-against, every variant's difference to one
-reference variant on the same seeds.
+reference variant on the same seeds; with --draws, each seed's expert trajectory beside its finals.
 
     python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc
+    python scripts/curve_summary.py results/mujoco.csv --paired-against bc --draws
 """
 
 import argparse
@@ -14,10 +15,11 @@ def main(argv=None):
     p.add_argument("csv", nargs="+")
     p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
     p.add_argument("--paired-against", default=None, help="reference variant of the paired differences")
+    p.add_argument("--draws", action="store_true", help="also the trajectories each seed drew (pool indices, mean return, steps)")
     p.add_argument("--markdown", default=None, help="also write the tables here")
     a = p.parse_args(argv)
     from sb3_mbil import load_demonstrations
-    from sb3_mbil.benchmark.curves import curve_table, paired_table
+    from sb3_mbil.benchmark.curves import curve_table, draw_table, paired_table
     from sb3_mbil.benchmark.results import write_text
 
     rows = []
@@ -33,6 +35,8 @@ def main(argv=None):
     text += curve_table(rows, expert, last=a.last)
     if a.paired_against:
         text += "\n\n" + paired_table(rows, a.paired_against, last=a.last)
+    if a.draws:
+        text += "\n\n" + draw_table(rows, last=a.last)
     print(text)
     if a.markdown:
         write_text(a.markdown, text + "\n")

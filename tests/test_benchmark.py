@@ -159,6 +159,24 @@ def test_curve_table_reports_final_return_and_late_drop():
     assert "| E | bc | 200 +- 0 | 0.20 | 900 (1000) | -701 | 2 | 2000 |" in text
 
 
+def test_draw_table_names_each_seeds_trajectory(tmp_path):
+    """Each (env, seed) row shows the trajectory that seed trains on (the same draw as run_curve's) beside its finals."""
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.benchmark.curves import draw_table
+
+    pool = tmp_path / "small.npz"
+    load_demonstrations("CartPole-v1").sample(5, seed=3).save(pool)
+    rows = [{"env": "CartPole-v1", "algo": v, "seed": s, "gradient_step": 500, "mean_return": ret, "n_trajectories": 2,
+             "settings": repr([("algo", "bc"), ("expert_pool", str(pool))])}
+            for s in (0, 1) for v, ret in (("bc", 100.0 + s), ("mbil", 200.0 + s))]
+    text = draw_table(rows, last=1)
+    for s in (0, 1):
+        drawn = load_demonstrations(str(pool)).sample(2, seed=s)
+        idx = ", ".join(map(str, drawn.metadata["sampled"]["indices"]))
+        length = sum(len(t) for t in drawn.trajectories)
+        assert f"| CartPole-v1 | {s} | {idx} | {drawn.episode_returns.mean():.0f} | {length} | {100 + s} | {200 + s} |" in text
+
+
 def test_curve_plot_keeps_each_variants_colour_across_panels(tmp_path):
     """A panel that lacks a variant must not shift the colours of the others; the legend lists every variant."""
     from sb3_mbil.benchmark.curves import plot_curves

@@ -78,19 +78,26 @@ class _Scorer(BaseCallback):
         return True
 
 
+def drawn_demonstrations(env: str, seed: int, n_trajectories: int = 1, pool: str | None = None):
+    """The expert trajectories a run of this seed trains on (drawn from ``pool`` or the env's shipped pool)."""
+    from sb3_mbil import load_demonstrations
+
+    return load_demonstrations(pool or env).sample(n_trajectories, seed=seed)
+
+
 def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_updates: int, eval_every: int = 500,
               n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None, commit: str | None = None,
               extra_settings: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Train one variant and return one row per evaluation point."""
     import torch as th
 
-    from sb3_mbil import ALGORITHMS, load_demonstrations
+    from sb3_mbil import ALGORITHMS
 
     th.set_num_threads(1)
     algo, variant_settings = variants[run.variant]
     settings = tuned_settings(algo, run.env, {**variant_settings, **(extra_settings or {})})
     settings.pop("n_timesteps", None)
-    demos = load_demonstrations(pool or run.env).sample(n_trajectories, seed=run.seed)
+    demos = drawn_demonstrations(run.env, run.seed, n_trajectories, pool)
     model = ALGORITHMS[algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     scorer = _Scorer(run.env, eval_every, n_episodes, seed=1_000_000 + 1000 * run.seed)
     model.learn(n_updates, callback=scorer)
@@ -189,6 +196,27 @@ def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
         se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
         lines.append(f"| {env} | {variant} | {len(d)} | {np.mean([by_seed[s][0] for s in seeds]):.0f} | {d.mean():.0f} +- {se:.0f} | "
                      f"{int((d < 0).sum())} of {len(d)} |")
+    return "\n".join(lines)
+
+
+def draw_table(rows: list[dict], last: int = 10) -> str:
+    """Markdown: per (env, seed) the trajectories the seed drew (pool indices, return, length) beside each
+    variant's final return on them, so a low final can be set against a short or low-return draw."""
+    import ast
+
+    finals = final_returns(rows, last)
+    variants = sorted({v for _, v in finals})
+    draws = {}
+    for r in rows:
+        settings = dict(ast.literal_eval(r["settings"])) if r.get("settings") else {}
+        draws[(r["env"], int(r["seed"]))] = (int(r.get("n_trajectories") or 1), settings.get("expert_pool"))
+    lines = ["| env | seed | drawn (pool index) | return of the draw (mean) | steps | " + " | ".join(variants) + " |",
+             "|---|---|---|---|---|" + "---|" * len(variants)]
+    for (env, seed), (n, pool) in sorted(draws.items()):
+        demos = drawn_demonstrations(env, seed, n, pool)
+        cells = [f"{finals[(env, v)][seed][0]:.0f}" if seed in finals.get((env, v), {}) else "" for v in variants]
+        lines.append(f"| {env} | {seed} | {', '.join(map(str, demos.metadata['sampled']['indices']))} | "
+                     f"{demos.episode_returns.mean():.0f} | {sum(len(t) for t in demos.trajectories)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
