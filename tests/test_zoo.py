@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import optuna
 import pytest
 import yaml
@@ -51,6 +52,22 @@ def test_train_enjoy_record_video(algo, tmp_path):
                  "-o", "videos"], tmp_path)
     assert video.returncode == 0, video.stderr[-3000:]
     assert list((tmp_path / "videos").glob("*.mp4"))
+
+
+@pytest.mark.parametrize("algo", ["mbil", "bc"])
+def test_mujoco_entry_trains_on_its_shipped_pool(algo, tmp_path):
+    """The Figure 4 settings as a zoo user runs them: one Hopper-v4 trajectory drawn with the run's seed,
+    inputs standardised with that trajectory's states (kept by save/load)."""
+    from sb3_mbil import BC, MBIL, load_demonstrations
+
+    train = run(["-m", "rl_zoo3.train", "--algo", algo, "--env", "Hopper-v4", "-n", "20", "--eval-freq", "-1",
+                 "--num-threads", "1", "--seed", "3", "-f", "logs", *TINY[algo]], tmp_path)
+    assert train.returncode == 0, train.stderr[-3000:]
+    model = {"mbil": MBIL, "bc": BC}[algo].load(tmp_path / "logs" / algo / "Hopper-v4_1" / "Hopper-v4.zip")
+    drawn = load_demonstrations("Hopper-v4").sample(1, seed=3).pairs()["observations"]
+    assert model.policy.normalize_observations and bool(model.policy.obs_stats_set)
+    np.testing.assert_allclose(model.policy.obs_mean.numpy(), drawn.mean(0), rtol=1e-5, atol=1e-5)
+    assert model.num_timesteps == 20
 
 
 def test_number_of_trajectories_is_a_hyperparameter(tmp_path):
