@@ -18,8 +18,7 @@ def main(argv=None):
     p.add_argument("--draws", action="store_true", help="also the trajectories each seed drew (pool indices, mean return, steps)")
     p.add_argument("--markdown", default=None, help="also write the tables here")
     a = p.parse_args(argv)
-    from sb3_mbil import load_demonstrations
-    from sb3_mbil.benchmark.curves import curve_table, draw_table, paired_table
+    from sb3_mbil.benchmark.curves import curve_table, draw_table, paired_table, pool_experts
     from sb3_mbil.benchmark.results import write_text
 
     rows = []
@@ -28,10 +27,12 @@ def main(argv=None):
             rows += list(csv.DictReader(f))
     if not rows:
         p.error(f"csv: expected result rows, found none in {a.csv}")
-    envs = sorted({r["env"] for r in rows})
-    expert = {e: float(load_demonstrations(e).episode_returns.mean()) for e in envs}
+    try:
+        expert = pool_experts(rows)
+    except ValueError as e:
+        p.error(str(e))
     commits = ", ".join(sorted({r["commit"] for r in rows}))
-    text = f"From {', '.join(f'`{c}`' for c in a.csv)} (commits: {commits}); expert = mean return of the pool.\n\n"
+    text = f"From {', '.join(f'`{c}`' for c in a.csv)} (commits: {commits}); expert = mean return of the pool the runs drew from.\n\n"
     text += curve_table(rows, expert, last=a.last)
     if a.paired_against:
         text += "\n\n" + paired_table(rows, a.paired_against, last=a.last)

@@ -177,6 +177,25 @@ def test_draw_table_names_each_seeds_trajectory(tmp_path):
         assert f"| CartPole-v1 | {s} | {idx} | {drawn.episode_returns.mean():.0f} | {length} | {100 + s} | {200 + s} |" in text
 
 
+def test_pool_experts_follow_the_pool_the_runs_drew_from(tmp_path):
+    """A CSV of runs on another pool is measured against that pool's return, not the shipped pool's; mixing two pools
+    of one env is an error that names them."""
+    import pytest
+
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.benchmark.curves import pool_experts
+
+    shipped = load_demonstrations("Acrobot-v1")
+    pool = tmp_path / "short.npz"
+    short = shipped.sample(5, seed=0)
+    short.save(pool)
+    row = {"env": "Acrobot-v1", "settings": repr([("algo", "bc"), ("expert_pool", str(pool))])}
+    assert pool_experts([row]) == {"Acrobot-v1": float(short.episode_returns.mean())}
+    assert pool_experts([{"env": "Acrobot-v1", "settings": ""}]) == {"Acrobot-v1": float(shipped.episode_returns.mean())}
+    with pytest.raises(ValueError, match="expert_pool"):
+        pool_experts([row, {"env": "Acrobot-v1", "settings": repr([("algo", "bc")])}])
+
+
 def test_curve_plot_keeps_each_variants_colour_across_panels(tmp_path):
     """A panel that lacks a variant must not shift the colours of the others; the legend lists every variant."""
     from sb3_mbil.benchmark.curves import plot_curves

@@ -199,6 +199,25 @@ def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
     return "\n".join(lines)
 
 
+def pool_experts(rows: list[dict]) -> dict[str, float]:
+    """Per env, the mean return of the pool its runs drew from (``expert_pool`` in the settings column, else the
+    env's shipped pool): the expert a curve of sampled-pool runs is measured against."""
+    import ast
+
+    from sb3_mbil import load_demonstrations
+
+    pools: dict[str, set] = {}
+    for r in rows:
+        settings = dict(ast.literal_eval(r["settings"])) if r.get("settings") else {}
+        pools.setdefault(r["env"], set()).add(settings.get("expert_pool") or r["env"])
+    expert = {}
+    for env, names in sorted(pools.items()):
+        if len(names) > 1:
+            raise ValueError(f"expert_pool: expected one pool per env, found {sorted(names)} for {env}")
+        expert[env] = float(load_demonstrations(names.pop()).episode_returns.mean())
+    return expert
+
+
 def draw_table(rows: list[dict], last: int = 10) -> str:
     """Markdown: per (env, seed) the trajectories the seed drew (pool indices, return, length) beside each
     variant's final return on them, so a low final can be set against a short or low-return draw."""
