@@ -251,3 +251,23 @@ def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tm
     # off by default: the statistics stay unset and unused
     plain = make(algo, "Pendulum-v1", trajs).learn(5)
     assert not plain.policy.normalize_observations and not bool(plain.policy.obs_stats_set)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_bounded_mean_stays_inside_the_action_bounds_and_is_saved(algo, data, tmp_path):
+    """``bounded_mean``: the Gaussian's mean is tanh-squashed into the Box bounds; the density around it
+    stays an unsquashed Gaussian in raw units (it still integrates to 1 over the real line)."""
+    model = make(algo, "Pendulum-v1", data["Pendulum-v1"], policy_kwargs={"bounded_mean": True}).learn(20)
+    pol = model.policy
+    with th.no_grad():
+        pol.mean_head.bias.fill_(50.0)  # the raw head far outside the bounds
+        mean = pol.mean_action(th.zeros(4, 3))
+        assert th.all(mean <= 2.0) and th.all(mean >= 1.99)  # Pendulum's bound is 2
+        grid = th.linspace(-40, 40, 40001).view(-1, 1)
+        dens = pol.log_prob(th.zeros(len(grid), 3), grid).exp()
+    assert abs(th.trapezoid(dens, grid.view(-1)).item() - 1.0) < 1e-3
+    model.save(tmp_path / "m.zip")
+    loaded = algo.load(tmp_path / "m.zip")
+    assert loaded.policy.bounded_mean and th.equal(loaded.policy.mean_action(th.zeros(4, 3)), mean)
+    with pytest.raises(ValueError, match="bounded_mean"):
+        make(algo, "CartPole-v1", data["CartPole-v1"], policy_kwargs={"bounded_mean": True})

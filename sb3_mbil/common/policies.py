@@ -5,7 +5,10 @@ An MLP with two ReLU hidden layers (the paper's policy) and
 * a softmax head for ``Discrete`` actions: pi(a|s) is a probability mass;
 * separate mean and log-std heads for ``Box`` actions: pi(a|s) is a diagonal
   Gaussian density in the env's raw action units (no squashing, so the density
-  is exactly the Gaussian's; ``predict`` clips to the action bounds).
+  is exactly the Gaussian's; ``predict`` clips to the action bounds). With
+  ``bounded_mean=True`` the *mean* is tanh-squashed into the bounds,
+  ``mean = center + half_range * tanh(h)``; the distribution around it stays an
+  unsquashed Gaussian in raw units, so log pi needs no Jacobian term.
 
 Deterministic ``predict`` returns the argmax or the mean.
 
@@ -42,6 +45,7 @@ class ImitationPolicy(BasePolicy):
     :param optimizer_class: the optimizer
     :param optimizer_kwargs: its keyword arguments (e.g. ``weight_decay``)
     :param normalize_observations: standardise observations with the expert states' statistics
+    :param bounded_mean: (Box) squash the Gaussian's mean into the action bounds with a tanh
     """
 
     OBS_STD_FLOOR = 1e-3
@@ -58,6 +62,7 @@ class ImitationPolicy(BasePolicy):
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
         normalize_observations: bool = False,
+        bounded_mean: bool = False,
     ):
         super().__init__(
             observation_space,
@@ -74,6 +79,11 @@ class ImitationPolicy(BasePolicy):
             raise ValueError(f"log_std_bounds: expected (low, high) with low < high, found {log_std_bounds!r}")
         self.discrete = isinstance(action_space, spaces.Discrete)
         self.normalize_observations = bool(normalize_observations)
+        if not isinstance(bounded_mean, bool):
+            raise ValueError(f"bounded_mean: expected True or False, found {bounded_mean!r}")
+        if bounded_mean and self.discrete:
+            raise ValueError("bounded_mean: expected False for Discrete actions (it bounds a Gaussian mean), found True")
+        self.bounded_mean = bounded_mean
         self._build(lr_schedule)
 
     def _build(self, lr_schedule: Schedule) -> None:
@@ -90,6 +100,10 @@ class ImitationPolicy(BasePolicy):
             act_dim = int(math.prod(self.action_space.shape))
             self.mean_head = nn.Linear(latent_dim, act_dim)
             self.log_std_head = nn.Linear(latent_dim, act_dim)
+            low = th.as_tensor(self.action_space.low, dtype=th.float32).reshape(-1)
+            high = th.as_tensor(self.action_space.high, dtype=th.float32).reshape(-1)
+            self.register_buffer("action_center", (high + low) / 2, persistent=False)  # from the space
+            self.register_buffer("action_half_range", (high - low) / 2, persistent=False)
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
@@ -101,6 +115,7 @@ class ImitationPolicy(BasePolicy):
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
             normalize_observations=self.normalize_observations,
+            bounded_mean=self.bounded_mean,
         )
         # The features extractor is fixed (flatten): do not pass these on.
         for key in ("features_extractor_class", "features_extractor_kwargs", "normalize_images", "squash_output"):
@@ -127,7 +142,10 @@ class ImitationPolicy(BasePolicy):
         h = self._latent(obs)
         if self.discrete:
             return (self.logits_head(h),)
-        return self.mean_head(h), self.log_std_head(h).clamp(*self.log_std_bounds)
+        mean = self.mean_head(h)
+        if self.bounded_mean:
+            mean = self.action_center + self.action_half_range * th.tanh(mean)
+        return mean, self.log_std_head(h).clamp(*self.log_std_bounds)
 
     def log_prob_from_heads(self, heads: Sequence[th.Tensor], actions: th.Tensor) -> th.Tensor:
         """log pi(a | s) from :meth:`heads`: log-mass (Discrete) or log-density in raw action units (Box)."""
