@@ -75,7 +75,7 @@ def test_save_load_identical(algo, env_id, data, tmp_path):
 
 def test_mbil_load_restores_flows_without_refitting(data, tmp_path, monkeypatch):
     model = make(MBIL, "CartPole-v1", data["CartPole-v1"]).learn(20)
-    target = model._data["target"].clone()
+    target = model._targets.clone()
     model.save(tmp_path / "m.zip")
     loaded = MBIL.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
     assert bool(loaded.flows.fitted)
@@ -86,7 +86,7 @@ def test_mbil_load_restores_flows_without_refitting(data, tmp_path, monkeypatch)
 
     monkeypatch.setattr(MBIL, "fit_flows", refit)
     loaded.learn(5, reset_num_timesteps=False)
-    th.testing.assert_close(loaded._data["target"], target)
+    th.testing.assert_close(loaded._targets, target)
 
 
 @pytest.mark.parametrize("algo", ALGOS)
@@ -127,7 +127,7 @@ def test_transition_fit_never_changes_the_policy(env_id, data):
 
 def test_tuple_targets_are_the_cached_balance_targets(data):
     model = make(MBIL, "Pendulum-v1", data["Pendulum-v1"]).learn(5)
-    assert th.equal(model.tuple_targets(), model._data["target"])
+    assert th.equal(model.tuple_targets(), model._targets)
     assert len(model.tuple_targets()) == model.flow_report["n_tuples"]
 
 
@@ -211,13 +211,13 @@ def test_balance_diagnostics_split_the_residual(data):
     model.learn(50)
     d = model.balance_diagnostics()
     target = model.tuple_targets()
-    tup = model._tuples()
+    tup = model.expert_tuples()
     with th.no_grad():
-        log_pi = model.policy.log_prob(tup["s_next"], tup["a_next"])
-        mean, log_std = model.policy.mean_log_std(tup["s_next"])
+        log_pi = model.policy.log_prob(tup.next_observations, tup.next_actions)
+        mean, log_std = model.policy.mean_log_std(tup.next_observations)
     assert d["residual_mse"] == pytest.approx(float((target - log_pi).pow(2).mean()), rel=1e-5)
     # Gaussian: log pi = log pi_max - q, q the mean's share, >= 0
-    q = (0.5 * ((tup["a_next"].view_as(mean) - mean) / log_std.exp()).pow(2)).sum(1)
+    q = (0.5 * ((tup.next_actions.view_as(mean) - mean) / log_std.exp()).pow(2)).sum(1)
     assert d["mean_shift_nats"] == pytest.approx(float(q.mean()), rel=1e-4) and d["mean_shift_nats"] >= 0
     assert d["residual_mse_mean_on_action"] == pytest.approx(float((target - log_pi - q).pow(2).mean()), rel=1e-4)
     assert d["n_tuples"] == len(target) and 0 <= d["unreachable_targets"] <= len(target)

@@ -9,9 +9,9 @@ units, normalisation or dequantisation), and balance-only MBIL (beta = 0) recove
 import numpy as np
 import pytest
 import torch as th
+from synthetic import DiscreteActionMDP, LinearGaussianMDP
 
 from sb3_mbil import MBIL, as_demonstrations
-from synthetic import DiscreteActionMDP, LinearGaussianMDP
 
 # Tolerances, nats per tuple (the models are fitted on 2970 tuples).
 T_TOLERANCE = 0.2

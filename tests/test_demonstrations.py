@@ -188,10 +188,10 @@ def test_unsupported_spaces(algo, env, match):
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(alpha=-1.0), "alpha: expected a number >= 0"),
+        (dict(alpha=-1.0), "alpha: expected a finite number >= 0"),
         (dict(alpha=0.0, beta=0.0), "found both 0"),
         (dict(noise_grid=()), "noise_grid"),
-        (dict(transition_noise_grid=(-0.1,)), "transition_noise_grid: expected None or a non-empty list"),
+        (dict(transition_noise_grid=(-0.1,)), "transition_noise_grid: expected a non-empty list"),
         (dict(validation_fraction=1.5), "validation_fraction"),
         (dict(bc_loss="hinge"), "bc_loss: expected one of"),
         (dict(bc_loss="mse"), "bc_loss: expected 'nll' or 'auto' for Discrete"),

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 import torch as th
-from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
-from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
+from sb3_mbil.common.policies import ImitationPolicy
 
 
 class BC(OfflineAlgorithm):
@@ -37,9 +36,6 @@ class BC(OfflineAlgorithm):
     :param _init_setup_model: build the networks at construction
     """
 
-    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MlpPolicy": MlpPolicy}
-    policy: ImitationPolicy
-
     def __init__(
         self,
         policy: str | type[ImitationPolicy],
@@ -57,34 +53,21 @@ class BC(OfflineAlgorithm):
         _init_setup_model: bool = True,
     ):
         super().__init__(
-            policy, env, expert_data, learning_rate, batch_size, policy_kwargs, tensorboard_log, verbose, seed, device,
-            _init_setup_model,
+            policy=policy, env=env, expert_data=expert_data, learning_rate=learning_rate, batch_size=batch_size,
+            weight_decay=weight_decay, policy_kwargs=policy_kwargs, tensorboard_log=tensorboard_log, verbose=verbose,
+            seed=seed, device=device, _init_setup_model=_init_setup_model,
         )
         self.bc_loss = bc_loss
-        self.weight_decay = float(weight_decay)
         if _init_setup_model:
             self._setup_model()
 
-    def _setup_model(self) -> None:
+    def _check_hyperparameters(self) -> None:
+        super()._check_hyperparameters()
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
-        if self.weight_decay < 0:
-            raise ValueError(f"weight_decay: expected a value >= 0, found {self.weight_decay}")
-        self._setup_lr_schedule()
-        self.set_random_seed(self.seed)
-        kwargs = dict(self.policy_kwargs)
-        kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": self.weight_decay}
-        self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs)
-        self.policy = self.policy.to(self.device)
-        self._data = None
-
-    def _prepare_training(self) -> None:
-        if self._data is None:
-            pairs = self.demonstrations().pairs()
-            self._data = {"obs": self._to_tensor(pairs["observations"], "obs"), "act": self._to_tensor(pairs["actions"], "act")}
 
     def _train_step(self) -> None:
-        idx = self._sample_indices(len(self._data["obs"]))
-        loss = bc_loss(self.policy, self.policy.heads(self._data["obs"][idx]), self._data["act"][idx], self._bc_kind)
+        batch = self.sample(self.expert_pairs())
+        loss = bc_loss(self.policy, self.policy.heads(batch.observations), batch.actions, self._bc_kind)
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()

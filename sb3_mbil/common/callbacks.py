@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import gymnasium as gym
 import os
 from pathlib import Path
 
+import gymnasium as gym
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor

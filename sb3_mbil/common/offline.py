@@ -20,26 +20,38 @@ from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
 
 from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demonstrations
+from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
+from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
+from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
 
 SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
 
 
-def check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
-    """Refuse, with a clear message, spaces the offline algorithms do not support."""
+def check_spaces(observation_space: spaces.Space, action_space: spaces.Space,
+                 supported: tuple[type[spaces.Space], ...] = (spaces.Discrete, spaces.Box), algo: str = "") -> None:
+    """Refuse, with a clear message, spaces the offline algorithms (or this one: ``supported``) do not support."""
     if not isinstance(observation_space, spaces.Box):
         raise ValueError(f"observation_space: expected a gymnasium Box, found {observation_space}")
+    if not isinstance(action_space, (spaces.Discrete, spaces.Box)):
+        raise ValueError(f"action_space: expected Discrete or Box, found {action_space}")
+    if not isinstance(action_space, supported):
+        names = " or ".join(s.__name__ for s in supported)
+        raise ValueError(f"action_space: expected {names} ({algo} supports {names} actions only), found {action_space}")
     if isinstance(action_space, spaces.Discrete):
         if int(action_space.start) != 0:
             raise ValueError(f"action_space: expected Discrete with start=0, found start={action_space.start}")
-    elif isinstance(action_space, spaces.Box):
-        if not np.all(np.isfinite(action_space.low)) or not np.all(np.isfinite(action_space.high)):
-            raise ValueError(f"action_space: expected finite Box bounds, found {action_space}")
-    else:
-        raise ValueError(f"action_space: expected Discrete or Box, found {action_space}")
+    elif not np.all(np.isfinite(action_space.low)) or not np.all(np.isfinite(action_space.high)):
+        raise ValueError(f"action_space: expected finite Box bounds, found {action_space}")
 
 
 class OfflineAlgorithm(BaseAlgorithm):
     """An SB3 algorithm that learns from expert data only.
+
+    The base builds what every algorithm has (SB3's ``OffPolicyAlgorithm._setup_model`` pattern): the
+    checked hyperparameters, the learning-rate schedule, the seeding and the policy with its Adam
+    optimiser (``weight_decay`` as Adam's L2 term). An algorithm adds its own networks in its
+    ``_setup_model`` after ``super()._setup_model()``, names them in ``_get_torch_save_params``, and
+    writes one gradient step in ``_train_step``.
 
     :param policy: policy class or alias (``"MlpPolicy"``)
     :param env: the env (or its id); used for its spaces and for evaluation only
@@ -47,6 +59,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         or a list of ``(observations, actions)`` pairs, one per trajectory. Not saved with the model.
     :param learning_rate: policy learning rate (constant or schedule of the remaining progress)
     :param batch_size: minibatch size of one gradient step
+    :param weight_decay: Adam weight decay (L2) of the policy
     :param policy_kwargs: keyword arguments of the policy
     :param tensorboard_log: tensorboard log folder (None: no tensorboard)
     :param verbose: 0 silent, 1 info, 2 debug
@@ -55,7 +68,9 @@ class OfflineAlgorithm(BaseAlgorithm):
     :param _init_setup_model: build the networks at construction
     """
 
-    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {}
+    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MlpPolicy": MlpPolicy}
+    supported_action_spaces: ClassVar[tuple[type[spaces.Space], ...]] = (spaces.Discrete, spaces.Box)
+    policy: ImitationPolicy
 
     def __init__(
         self,
@@ -64,6 +79,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         expert_data: ExpertData | None = None,
         learning_rate: float | Schedule = 1e-3,
         batch_size: int = 64,
+        weight_decay: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
         tensorboard_log: str | None = None,
         verbose: int = 0,
@@ -72,7 +88,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         _init_setup_model: bool = True,
     ):
         if hasattr(env, "observation_space") and hasattr(env, "action_space"):
-            check_spaces(env.observation_space, env.action_space)  # before SB3's own checks
+            self._check_spaces(env.observation_space, env.action_space)  # before SB3's own checks
         super().__init__(
             policy=policy,
             env=env,
@@ -85,19 +101,45 @@ class OfflineAlgorithm(BaseAlgorithm):
             seed=seed,
         )
         if env is not None:
-            check_spaces(self.observation_space, self.action_space)
+            self._check_spaces(self.observation_space, self.action_space)
         elif _init_setup_model:
             raise ValueError("env: expected a gymnasium env or env id (needed for the spaces), found None")
-        if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-            raise ValueError(f"batch_size: expected a positive integer, found {batch_size!r}")
         self.expert_data = expert_data
-        self.batch_size = int(batch_size)
+        self.batch_size = batch_size
+        self.weight_decay = weight_decay
         self._demonstrations: Demonstrations | None = None
+        self._on_new_data()
+
+    @classmethod
+    def _check_spaces(cls, observation_space: spaces.Space, action_space: spaces.Space) -> None:
+        check_spaces(observation_space, action_space, cls.supported_action_spaces, cls.__name__)
+
+    # ------------------------------------------------------------------ setup
+    def _check_hyperparameters(self) -> None:
+        """Check (and canonicalise) the constructor arguments; extend with ``super()._check_hyperparameters()``."""
+        self.learning_rate = check_learning_rate("learning_rate", self.learning_rate)
+        self.batch_size = check_int("batch_size", self.batch_size, low=1)
+        self.weight_decay = check_real("weight_decay", self.weight_decay, low=0.0)
+        self.seed = check_seed("seed", self.seed)
+
+    def _setup_model(self) -> None:
+        """Build from the hyperparameters alone (``load`` calls it before restoring the state dicts)."""
+        self._check_hyperparameters()
+        self._setup_lr_schedule()
+        self.set_random_seed(self.seed)
+        kwargs = dict(self.policy_kwargs)
+        kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": self.weight_decay}
+        self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs).to(self.device)
+        self._on_new_data()
+
+    def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
+        # The optimiser is saved too: training continued after load is training continued in memory.
+        return ["policy", "policy.optimizer"], []
 
     # ------------------------------------------------------------------ data
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
-        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_data", "_train_stats"]
+        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
         """Give (or replace) the expert data, e.g. after ``load`` to continue learning."""
@@ -106,8 +148,8 @@ class OfflineAlgorithm(BaseAlgorithm):
         self._on_new_data()
 
     def _on_new_data(self) -> None:
-        """Hook: forget caches derived from the data."""
-        self._data = None
+        """Forget the tensors derived from the data (extend to forget an algorithm's own caches)."""
+        self._expert_cache: dict[type, Any] = {}
 
     def demonstrations(self) -> Demonstrations:
         """The checked expert data as :class:`Demonstrations`."""
@@ -128,12 +170,51 @@ class OfflineAlgorithm(BaseAlgorithm):
             return th.as_tensor(np.asarray(array).reshape(len(array)).astype(np.int64), device=self.device)
         return th.as_tensor(np.asarray(array, dtype=np.float32).reshape(len(array), -1), device=self.device)
 
+    def expert_pairs(self) -> PairSamples:
+        """Every expert (s, a) pair as tensors (cached until the data changes)."""
+        if PairSamples not in self._expert_cache:
+            p = self.demonstrations().pairs()
+            self._expert_cache[PairSamples] = PairSamples(self._to_tensor(p["observations"], "obs"),
+                                                          self._to_tensor(p["actions"], "act"))
+        return self._expert_cache[PairSamples]
+
+    def expert_transitions(self) -> TransitionSamples:
+        """Every expert (s, a, s', done) inside a trajectory as tensors (cached)."""
+        if TransitionSamples not in self._expert_cache:
+            t = self.demonstrations().transitions()
+            self._expert_cache[TransitionSamples] = TransitionSamples(
+                self._to_tensor(t["observations"], "obs"), self._to_tensor(t["actions"], "act"),
+                self._to_tensor(t["next_observations"], "obs"),
+                th.as_tensor(t["dones"], dtype=th.float32, device=self.device))
+        return self._expert_cache[TransitionSamples]
+
+    def expert_tuples(self) -> TupleSamples:
+        """Every consecutive expert (s, a, s', a') inside a trajectory as tensors (cached)."""
+        if TupleSamples not in self._expert_cache:
+            demos = self.demonstrations()
+            short = [i for i, t in enumerate(demos) if len(t) < 2]
+            if short:
+                raise ValueError(
+                    f"expert_data: expected trajectories of 2 or more steps ({type(self).__name__} needs consecutive "
+                    f"(s, a, s', a')), found {len(short)} shorter ones, e.g. trajectory {short[0]} with "
+                    f"{len(demos[short[0]])} step"
+                )
+            t = demos.tuples()
+            self._expert_cache[TupleSamples] = TupleSamples(
+                self._to_tensor(t["observations"], "obs"), self._to_tensor(t["actions"], "act"),
+                self._to_tensor(t["next_observations"], "obs"), self._to_tensor(t["next_actions"], "act"))
+        return self._expert_cache[TupleSamples]
+
+    def sample(self, samples: Samples) -> Samples:
+        """A minibatch of ``batch_size`` rows drawn with replacement."""
+        return take(samples, self._sample_indices(len(samples.observations)))
+
     # ------------------------------------------------------------------ hooks
     def _prepare_training(self) -> None:
         """Called once at the start of every ``learn`` (after the logger is set)."""
 
     def _train_step(self) -> None:
-        """One gradient step. Record values with ``self.logger``."""
+        """One gradient step. Record values with ``self._record``."""
         raise NotImplementedError
 
     # ------------------------------------------------------------------ learn
@@ -164,10 +245,10 @@ class OfflineAlgorithm(BaseAlgorithm):
         total_timesteps, callback = self._setup_learn(
             int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
         )
-        demos = self.demonstrations()  # check the data before anything else
+        self.demonstrations()  # check the data before anything else
         if getattr(self.policy, "normalize_observations", False) and not bool(self.policy.obs_stats_set):
             # set once (kept by save/load and by set_expert_data, so continued training sees the same inputs)
-            self.policy.set_observation_stats(self._to_tensor(demos.pairs()["observations"], "obs"))
+            self.policy.set_observation_stats(self.expert_pairs().observations)
         self._prepare_training()
         callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)

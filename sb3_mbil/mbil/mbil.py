@@ -16,18 +16,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.flows import EVAL_CHUNK, block_split, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
-from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel, MlpPolicy
+from sb3_mbil.common.validation import check_bool, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
 
 
 class MBIL(OfflineAlgorithm):
@@ -75,8 +75,6 @@ class MBIL(OfflineAlgorithm):
     :param _init_setup_model: build the networks at construction
     """
 
-    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MlpPolicy": MlpPolicy}
-    policy: ImitationPolicy
     flows: MarkovBalanceModel
 
     def __init__(
@@ -113,15 +111,15 @@ class MBIL(OfflineAlgorithm):
         _init_setup_model: bool = True,
     ):
         super().__init__(
-            policy, env, expert_data, learning_rate, batch_size, policy_kwargs, tensorboard_log, verbose, seed, device,
-            _init_setup_model,
+            policy=policy, env=env, expert_data=expert_data, learning_rate=learning_rate, batch_size=batch_size,
+            weight_decay=weight_decay, policy_kwargs=policy_kwargs, tensorboard_log=tensorboard_log, verbose=verbose,
+            seed=seed, device=device, _init_setup_model=_init_setup_model,
         )
         self.alpha = alpha
         self.beta = beta
         self.bc_loss = bc_loss
-        self.weight_decay = weight_decay
         self.flow_transforms = flow_transforms
-        self.flow_hidden = [int(h) for h in flow_hidden]
+        self.flow_hidden = flow_hidden
         self.flow_embed_dim = flow_embed_dim
         self.flow_scale_limit = flow_scale_limit
         self.flow_learning_rate = flow_learning_rate
@@ -129,8 +127,8 @@ class MBIL(OfflineAlgorithm):
         self.flow_max_steps = flow_max_steps
         self.flow_eval_every = flow_eval_every
         self.flow_patience = flow_patience
-        self.noise_grid = [float(v) for v in noise_grid]
-        self.transition_noise_grid = None if transition_noise_grid is None else [float(v) for v in transition_noise_grid]
+        self.noise_grid = noise_grid
+        self.transition_noise_grid = transition_noise_grid
         self.transition_refit = transition_refit
         self.validation_fraction = validation_fraction
         self.flow_refit = flow_refit
@@ -141,40 +139,31 @@ class MBIL(OfflineAlgorithm):
 
     # ------------------------------------------------------------------ setup
     def _check_hyperparameters(self) -> None:
-        def need(name: str, ok: bool, expected: str) -> None:
-            if not ok:
-                raise ValueError(f"{name}: expected {expected}, found {getattr(self, name)!r}")
-
-        need("alpha", _is_real(self.alpha) and self.alpha >= 0, "a number >= 0")
-        need("beta", _is_real(self.beta) and self.beta >= 0, "a number >= 0")
+        super()._check_hyperparameters()
+        self.alpha = check_real("alpha", self.alpha, low=0.0)
+        self.beta = check_real("beta", self.beta, low=0.0)
         if self.alpha == 0 and self.beta == 0:
             raise ValueError("alpha, beta: expected at least one of them > 0, found both 0")
-        need("weight_decay", _is_real(self.weight_decay) and self.weight_decay >= 0, "a number >= 0")
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
         for name in ("flow_transforms", "flow_batch_size", "flow_max_steps", "flow_eval_every", "flow_patience"):
-            need(name, isinstance(getattr(self, name), (int, np.integer)) and getattr(self, name) >= 1, "an integer >= 1")
-        need("flow_embed_dim", isinstance(self.flow_embed_dim, (int, np.integer)) and self.flow_embed_dim >= 0, "an integer >= 0")
-        need("flow_hidden", len(self.flow_hidden) >= 1 and min(self.flow_hidden) >= 1, "a non-empty list of positive sizes")
-        need("flow_scale_limit", _is_real(self.flow_scale_limit) and self.flow_scale_limit > 0, "a number > 0")
-        need("flow_learning_rate", _is_real(self.flow_learning_rate) and self.flow_learning_rate > 0, "a number > 0")
-        need("noise_grid", len(self.noise_grid) >= 1 and min(self.noise_grid) >= 0, "a non-empty list of levels >= 0")
+            setattr(self, name, check_int(name, getattr(self, name), low=1))
+        self.flow_embed_dim = check_int("flow_embed_dim", self.flow_embed_dim, low=0)
+        self.flow_hidden = check_sizes("flow_hidden", self.flow_hidden)
+        self.flow_scale_limit = check_real("flow_scale_limit", self.flow_scale_limit, low=0.0, low_open=True)
+        self.flow_learning_rate = check_real("flow_learning_rate", self.flow_learning_rate, low=0.0, low_open=True)
+        self.noise_grid = check_levels("noise_grid", self.noise_grid)
         if self.transition_noise_grid is not None:
-            need("transition_noise_grid", len(self.transition_noise_grid) >= 1 and min(self.transition_noise_grid) >= 0,
-                 "None or a non-empty list of levels >= 0")
-        need("validation_fraction", _is_real(self.validation_fraction) and 0 < self.validation_fraction < 1, "a value in (0, 1)")
-        need("log_density_floor", _is_real(self.log_density_floor), "a finite number")
+            self.transition_noise_grid = check_levels("transition_noise_grid", self.transition_noise_grid)
+        self.transition_refit = check_bool("transition_refit", self.transition_refit)
+        self.flow_refit = check_bool("flow_refit", self.flow_refit)
+        self.validation_fraction = check_real("validation_fraction", self.validation_fraction, low=0.0, high=1.0,
+                                              low_open=True, high_open=True)
+        self.log_density_floor = check_real("log_density_floor", self.log_density_floor)
 
     def _setup_model(self) -> None:
-        self._check_hyperparameters()
-        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
-        self._setup_lr_schedule()
-        self.set_random_seed(self.seed)
-        kwargs = dict(self.policy_kwargs)
-        kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": float(self.weight_decay)}
-        self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs)
-        self.policy = self.policy.to(self.device)
-        obs_dim = int(np.prod(self.observation_space.shape))
+        super()._setup_model()
         self.flows = MarkovBalanceModel(
-            obs_dim,
+            int(np.prod(self.observation_space.shape)),
             self.action_space,
             transforms=self.flow_transforms,
             hidden=self.flow_hidden,
@@ -182,30 +171,20 @@ class MBIL(OfflineAlgorithm):
             scale_limit=self.flow_scale_limit,
         ).to(self.device)
         self.flows.eval()
-        self._data = None
+
+    def _on_new_data(self) -> None:
+        super()._on_new_data()
+        self._targets: th.Tensor | None = None  # the balance target of every tuple, once the flows are fitted
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_targets"]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         # The flows are saved with the policy: load must not replace them with fresh ones.
-        return ["policy", "policy.optimizer", "flows"], []
+        names, others = super()._get_torch_save_params()
+        return [*names, "flows"], others
 
     # ------------------------------------------------------------------ flows
-    def _tuples(self) -> dict[str, th.Tensor]:
-        demos = self.demonstrations()
-        short = [i for i, t in enumerate(demos) if len(t) < 2]
-        if short:
-            raise ValueError(
-                f"expert_data: expected trajectories of 2 or more steps (MBIL needs consecutive (s, a, s', a')), "
-                f"found {len(short)} shorter ones, e.g. trajectory {short[0]} with {len(demos[short[0]])} step"
-            )
-        t = demos.tuples()
-        return {
-            "s": self._to_tensor(t["observations"], "obs"),
-            "a": self._to_tensor(t["actions"], "act"),
-            "s_next": self._to_tensor(t["next_observations"], "obs"),
-            "a_next": self._to_tensor(t["next_actions"], "act"),
-            "trajectory_index": t["trajectory_index"],
-        }
-
     def fit_flows(self) -> dict[str, Any]:
         """Fit T(s' | s, a) and P(a' | s, a, s') on the expert tuples (maximum likelihood).
 
@@ -213,9 +192,9 @@ class MBIL(OfflineAlgorithm):
         Returns (and keeps in ``self.flow_report``) the chosen noise levels, step counts and
         held-out log-likelihoods (nats per tuple, raw units).
         """
-        tup = self._tuples()
+        tup = self.expert_tuples()
         seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
-        train_idx, val_idx = block_split(tup["trajectory_index"], self.validation_fraction, seed)
+        train_idx, val_idx = block_split(self.demonstrations().tuples()["trajectory_index"], self.validation_fraction, seed)
         common = dict(
             noise_grid=self.noise_grid,
             learning_rate=self.flow_learning_rate,
@@ -226,7 +205,7 @@ class MBIL(OfflineAlgorithm):
             refit=self.flow_refit,
             seed=seed,
         )
-        s, a, s_next, a_next = tup["s"], tup["a"], tup["s_next"], tup["a_next"]
+        s, a, s_next, a_next = tup
         fitted_t, report_t = fit_conditional_density(
             self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
             **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)},
@@ -248,7 +227,7 @@ class MBIL(OfflineAlgorithm):
             "n_tuples": len(s),
             "n_heldout": len(val_idx),
         }
-        self._data = None
+        self._targets = None
         return self.flow_report
 
     @th.no_grad()
@@ -265,8 +244,7 @@ class MBIL(OfflineAlgorithm):
 
     def tuple_targets(self) -> th.Tensor:
         """The balance target of every expert tuple (what the policy's log pi(a' | s') is regressed on)."""
-        tup = self._tuples()
-        return self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
+        return self.balance_target(*self.expert_tuples())
 
     @th.no_grad()
     def balance_diagnostics(self) -> dict[str, Any]:
@@ -283,10 +261,10 @@ class MBIL(OfflineAlgorithm):
         bound (the clamp gives them no gradient there) and ``bc_mse`` the mean's squared error on the
         (s, a) pairs (the MSE behaviour-cloning term).
         """
-        tup = self._tuples()
-        target = self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"])
-        heads = self.policy.heads(tup["s_next"])
-        log_pi = self.policy.log_prob_from_heads(heads, tup["a_next"])
+        tup = self.expert_tuples()
+        target = self.balance_target(*tup)
+        heads = self.policy.heads(tup.next_observations)
+        log_pi = self.policy.log_prob_from_heads(heads, tup.next_actions)
         out: dict[str, Any] = {
             "n_tuples": len(target),
             "target_mean": float(target.mean()), "target_std": float(target.std()),
@@ -299,15 +277,15 @@ class MBIL(OfflineAlgorithm):
         d = mean.shape[1]
         log_pi_max = -log_std.sum(1) - 0.5 * d * math.log(2 * math.pi)
         lowest = -d * self.policy.log_std_bounds[1] - 0.5 * d * math.log(2 * math.pi)
-        pairs = self.demonstrations().pairs()
-        bc_mean = self.policy.mean_action(self._to_tensor(pairs["observations"], "obs"))
+        pairs = self.expert_pairs()
+        bc_mean = self.policy.mean_action(pairs.observations)
         out.update(
             mean_shift_nats=float((log_pi_max - log_pi).mean()),
             residual_mse_mean_on_action=float((target - log_pi_max).pow(2).mean()),
             unreachable_targets=int((target < lowest).sum()),
             log_std_at_bound=float(((log_std <= self.policy.log_std_bounds[0] + 1e-3)
                                     | (log_std >= self.policy.log_std_bounds[1] - 1e-3)).float().mean()),
-            bc_mse=float((bc_mean - self._to_tensor(pairs["actions"], "act").view_as(bc_mean)).pow(2).mean()),
+            bc_mse=float((bc_mean - pairs.actions.view_as(bc_mean)).pow(2).mean()),
         )
         return out
 
@@ -315,54 +293,47 @@ class MBIL(OfflineAlgorithm):
     def _prepare_training(self) -> None:
         if not bool(self.flows.fitted):
             self.fit_flows()
-        if self._data is None:
-            pairs = self.demonstrations().pairs()
-            tup = self._tuples()
-            obs, act = self._to_tensor(pairs["observations"], "obs"), self._to_tensor(pairs["actions"], "act")
-            self._data = {
-                # (s, a) pairs for the BC term, then (s', a') of the tuples for the balance term
-                "states": th.cat([obs, tup["s_next"]]),
-                "actions": th.cat([act, tup["a_next"]]),
-                "n_pairs": len(obs),
-                "n_tuples": len(tup["s_next"]),
-                "target": self.balance_target(tup["s"], tup["a"], tup["s_next"], tup["a_next"]),
-                "empty": th.zeros(0, dtype=th.long, device=self.device),
-            }
+        if self._targets is None:
+            self._targets = self.tuple_targets()
         if self.flow_report is not None:
             for key in ("p_heldout_ll", "transition_heldout_ll", "fit_seconds"):
                 self.logger.record(f"flows/{key}", self.flow_report[key])
             self.logger.record("flows/transition_noise", self.flow_report["transition"]["noise"])
             self.logger.record("flows/next_action_noise", self.flow_report["next_action"]["noise"])
-        self.logger.record("flows/target_mean", float(self._data["target"].mean()))
+        self.logger.record("flows/target_mean", float(self._targets.mean()))
 
     def _train_step(self) -> None:
-        d = self._data
-        # One forward pass over both minibatches: expert states s (BC term) and next states s'
-        # (balance term), stored back to back in d["states"] / d["actions"].
-        i = self._sample_indices(d["n_pairs"]) if self.beta > 0 else d["empty"]
-        j = self._sample_indices(d["n_tuples"]) if self.alpha > 0 else d["empty"]
-        idx = th.cat([i, j + d["n_pairs"]])
-        heads = self.policy.heads(d["states"][idx])
-        actions = d["actions"][idx]
-        n = len(i)
-        log_pi = self.policy.log_prob_from_heads(heads, actions) if (self.alpha > 0 or self._bc_kind == "nll") else None
-        loss = 0.0
+        pairs, tuples = self.expert_pairs(), self.expert_tuples()
+        i = self._sample_indices(len(pairs.observations)) if self.beta > 0 else self._no_rows
+        j = self._sample_indices(len(tuples.observations)) if self.alpha > 0 else self._no_rows
+        # pi at the expert states s (BC term) and next states s' (balance term), in one forward pass
+        heads_s, heads_next = self._heads_at(pairs.observations[i], tuples.next_observations[j])
+        loss = th.zeros((), device=self.device)
+
+        # Balance term: E[(log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'))^2], the first two cached per tuple.
         if self.alpha > 0:
-            # Balance residual (the paper's objective): log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'); the first two cached.
-            residual = d["target"][j] - log_pi[n:]
+            residual = self._targets[j] - self.policy.log_prob_from_heads(heads_next, tuples.next_actions[j])
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss
             self._record("train/balance_loss", balance_loss)
             self._record("train/residual_mean", residual.detach().mean())
+
+        # BC term: L_BC(pi, D) on the expert's (s, a) pairs.
         if self.beta > 0:
-            bc = bc_loss(self.policy, [h[:n] for h in heads], actions[:n], self._bc_kind,
-                         log_prob=None if log_pi is None else log_pi[:n])
+            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind)
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
+
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()
 
+    @property
+    def _no_rows(self) -> th.Tensor:
+        return th.zeros(0, dtype=th.long, device=self.device)
 
-def _is_real(x: Any) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and math.isfinite(float(x))
+    def _heads_at(self, states: th.Tensor, next_states: th.Tensor) -> tuple[list[th.Tensor], list[th.Tensor]]:
+        """The policy's outputs at two sets of states, from one forward pass over both."""
+        heads = self.policy.heads(th.cat([states, next_states]))
+        n = len(states)
+        return [h[:n] for h in heads], [h[n:] for h in heads]
