@@ -30,7 +30,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    from sb3_mbil.common.experts import generate_demonstrations
+    from sb3_mbil.experts import generate_demonstrations
 
     demos, path = generate_demonstrations(
         args.env, args.n_trajectories, args.source, args.seed, args.out, args.algo, args.min_return, args.eval_episodes,

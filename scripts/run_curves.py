@@ -40,8 +40,14 @@ def main(argv=None):
     p.add_argument("--local", action="store_true", help="without Ray")
     a = p.parse_args(argv)
     from sb3_mbil import load_demonstrations
-    from sb3_mbil.benchmark.curves import (ABLATION_VARIANTS, FIGURE4_VARIANTS, curve_table, parse_variants, plot_curves,
-                                           run_curves)
+    from sb3_mbil.benchmark.curves import (
+        ABLATION_VARIANTS,
+        FIGURE4_VARIANTS,
+        curve_table,
+        parse_variants,
+        plot_curves,
+        run_curves,
+    )
     from sb3_mbil.benchmark.results import write_text
 
     if a.variants:

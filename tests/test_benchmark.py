@@ -74,7 +74,7 @@ def test_unknown_env_is_refused():
 @pytest.mark.parametrize("algo", ["mbil", "bc"])
 def test_every_expert_env_has_tuned_settings(algo):
     from sb3_mbil.benchmark.grid import tuned_settings
-    from sb3_mbil.common.experts import EXPERTS
+    from sb3_mbil.experts import EXPERTS
 
     for env in EXPERTS:
         settings = tuned_settings(algo, env)

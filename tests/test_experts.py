@@ -12,7 +12,7 @@ from stable_baselines3 import DQN
 
 from sb3_mbil import load_demonstrations
 from sb3_mbil.common.demonstrations import available_pools
-from sb3_mbil.common.experts import EXPERTS, generate_demonstrations, get_expert, load_expert_file
+from sb3_mbil.experts import EXPERTS, generate_demonstrations, get_expert, load_expert_file
 
 # Shipped pools: the acceptance thresholds of their experts, and their size.
 SHIPPED = {env: spec.min_return for env, spec in EXPERTS.items()}
@@ -61,7 +61,7 @@ def test_hub_path_reads_a_local_hub_cache(tmp_path, dqn_zip, offline_flag):
     env["HF_HUB_CACHE"] = str(cache)
     if offline_flag:
         env["HF_HUB_OFFLINE"] = offline_flag
-    code = "from sb3_mbil.common.experts import load_hub_expert; e = load_hub_expert('CartPole-v1', 'dqn'); print(e.source)"
+    code = "from sb3_mbil.experts import load_hub_expert; e = load_hub_expert('CartPole-v1', 'dqn'); print(e.source)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "hub:sb3/dqn-CartPole-v1"
@@ -190,7 +190,7 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     """An interrupted run (checkpoint + replay buffer, no final model) continues with rl_zoo3's -i."""
     import json
 
-    from sb3_mbil.common.experts import train_zoo_expert
+    from sb3_mbil.experts import train_zoo_expert
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
@@ -227,7 +227,7 @@ def test_resumable_checkpoints_are_whole_and_pruned(tmp_path):
 
 
 def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch):
-    from sb3_mbil.common.experts import train_zoo_expert
+    from sb3_mbil.experts import train_zoo_expert
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=2000, n_evaluations=10, stop_at_return=-1e9)

@@ -1,0 +1,27 @@
+"""Expert agents (RL Zoo: the Hugging Face Hub or local rl_zoo3 training) and the demonstrations generated with them."""
+
+from sb3_mbil.experts.generate import (
+    EXPERTS,
+    Expert,
+    ExpertSpec,
+    evaluate_expert,
+    generate_demonstrations,
+    get_expert,
+    load_expert_file,
+    load_hub_expert,
+    rollout,
+    train_zoo_expert,
+)
+
+__all__ = [
+    "EXPERTS",
+    "Expert",
+    "ExpertSpec",
+    "evaluate_expert",
+    "generate_demonstrations",
+    "get_expert",
+    "load_expert_file",
+    "load_hub_expert",
+    "rollout",
+    "train_zoo_expert",
+]
