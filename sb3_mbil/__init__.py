@@ -1,16 +1,25 @@
 """sb3_mbil: Markov Balance-based Imitation Learning and imitation baselines for Stable-Baselines3."""
 
+from sb3_mbil.avril import AVRIL
 from sb3_mbil.bc import BC
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory, as_demonstrations, load_demonstrations
+from sb3_mbil.dsfn import DSFN
+from sb3_mbil.edm import EDM
 from sb3_mbil.mbil import MBIL
+from sb3_mbil.rcal import RCAL
 from sb3_mbil.version import __version__
 
-ALGORITHMS = {"mbil": MBIL, "bc": BC}
+#: The one registry: the RL Zoo registration, the benchmark, the speed script and the tests read it.
+ALGORITHMS = {"mbil": MBIL, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN}
 
 __all__ = [
     "ALGORITHMS",
+    "AVRIL",
     "BC",
+    "DSFN",
+    "EDM",
     "MBIL",
+    "RCAL",
     "Demonstrations",
     "Trajectory",
     "__version__",

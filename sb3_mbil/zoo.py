@@ -44,9 +44,9 @@ def algorithms() -> dict[str, type]:
 
 
 # ---------------------------------------------------------------------- Optuna samplers
-def _common(trial) -> dict[str, Any]:
+def _common(trial, lr_range: tuple[float, float] = (1e-4, 3e-3)) -> dict[str, Any]:
     return {
-        "learning_rate": trial.suggest_float("learning_rate", 1e-4, 3e-3, log=True),
+        "learning_rate": trial.suggest_float("learning_rate", *lr_range, log=True),
         "batch_size": trial.suggest_categorical("batch_size", [32, 64, 128, 256]),
         "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCH)),
     }
@@ -87,19 +87,70 @@ def convert_bc_params(params: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-SAMPLERS = {"mbil": sample_mbil_params, "bc": sample_bc_params}
-CONVERTERS = {"mbil": convert_mbil_params, "bc": convert_bc_params}
+def sample_edm_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for EDM: learning rate, batch size, network size, energy weight, SGLD steps."""
+    params = _common(trial)
+    params["energy_weight"] = trial.suggest_float("energy_weight", 0.1, 10.0, log=True)
+    params["sgld_steps"] = trial.suggest_categorical("sgld_steps", [10, 20, 40])
+    return convert_bc_params(params)
+
+
+def sample_avril_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for AVRIL: learning rate, batch size, network size, TD-likelihood weight, discount."""
+    params = _common(trial, lr_range=(1e-5, 1e-3))
+    params["reward_weight"] = trial.suggest_float("reward_weight", 0.1, 10.0, log=True)
+    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.99, 1.0])
+    return convert_bc_params(params)
+
+
+def sample_rcal_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for RCAL: learning rate, batch size, network size, sparsity weight, classification loss."""
+    params = _common(trial)
+    params["reward_weight"] = trial.suggest_float("reward_weight", 1e-3, 1.0, log=True)
+    params["classification_loss"] = trial.suggest_categorical("classification_loss", ["cross_entropy", "margin"])
+    params["soft_max"] = trial.suggest_categorical("soft_max", [True, False])
+    return convert_bc_params(params)
+
+
+def sample_dsfn_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for DSFN: learning rate, batch size, network size, discount, DQN and successor-feature steps."""
+    params = _common(trial)
+    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.95, 0.99])
+    params["dqn_steps"] = trial.suggest_categorical("dqn_steps", [10_000, 30_000])
+    params["sf_steps"] = trial.suggest_categorical("sf_steps", [10_000, 50_000])
+    return convert_bc_params(params)
+
+
+SAMPLERS = {"mbil": sample_mbil_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
+            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params}
+CONVERTERS = {"mbil": convert_mbil_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
+              "rcal": convert_bc_params, "dsfn": convert_bc_params}
+
+
+def check_registration(algos: dict[str, type] | None = None) -> None:
+    """Every registered algorithm needs its own sampler, converter and hyperparameter file (never BC's by default)."""
+    for name in algos or algorithms():
+        missing = [what for what, ok in (("an Optuna sampler (sb3_mbil.zoo.SAMPLERS)", name in SAMPLERS),
+                                         ("a converter (sb3_mbil.zoo.CONVERTERS)", name in CONVERTERS)) if not ok]
+        try:
+            hyperparams_file(name)
+        except FileNotFoundError:
+            missing.append(f"zoo_hyperparams/{name}.yml")
+        if missing:
+            raise RuntimeError(f"sb3_mbil.ALGORITHMS[{name!r}]: expected " + " and ".join(missing) + ", found none")
 
 
 # ---------------------------------------------------------------------- rl_zoo3 patches
 def patch(name: str, module) -> None:
     """Called by the import hook after rl_zoo3 module ``name`` has executed."""
     if name == "rl_zoo3.utils":
+        check_registration()
         module.ALGOS.update(algorithms())
     elif name == "rl_zoo3.hyperparams_opt":
+        check_registration()
         for algo in algorithms():
-            module.HYPERPARAMS_SAMPLER[algo] = SAMPLERS.get(algo, sample_bc_params)
-            module.HYPERPARAMS_CONVERTER[algo] = CONVERTERS.get(algo, convert_bc_params)
+            module.HYPERPARAMS_SAMPLER[algo] = SAMPLERS[algo]
+            module.HYPERPARAMS_CONVERTER[algo] = CONVERTERS[algo]
     elif name == "rl_zoo3.exp_manager":
         _patch_experiment_manager(module.ExperimentManager)
 

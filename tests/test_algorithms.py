@@ -6,23 +6,30 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch as th
+from gymnasium import spaces
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_mbil import BC, MBIL
+from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL
 
-# Small flows so the API tests stay fast; the flow quality is tested in test_correctness.py.
+# Small settings so the contract tests stay fast (flow quality: test_correctness.py; behaviour: test_baselines.py).
 FAST = {
-    MBIL: dict(flow_max_steps=60, flow_eval_every=20, noise_grid=(0.1,), flow_hidden=(32,), flow_transforms=2),
-    BC: {},
+    "mbil": dict(flow_max_steps=60, flow_eval_every=20, noise_grid=(0.1,), flow_hidden=(32,), flow_transforms=2),
+    "edm": dict(sgld_steps=2, sgld_buffer_size=200),
+    "dsfn": dict(warm_start_steps=8, dqn_steps=6, sf_steps=5, max_iterations=4, target_update_interval=3),
 }
-ALGOS = [MBIL, BC]
+ALGOS = list(ALGORITHMS.values())
 ENVS = ["CartPole-v1", "Pendulum-v1"]
+SPACE = {"CartPole-v1": spaces.Discrete, "Pendulum-v1": spaces.Box}
+# every (algorithm, env) pair the algorithm supports
+CASES = [pytest.param(algo, env, id=f"{name}-{env}") for name, algo in ALGORITHMS.items() for env in ENVS
+         if SPACE[env] in algo.supported_action_spaces]
 
 
 def make(algo, env_id, data, **kwargs):
-    return algo("MlpPolicy", env_id, expert_data=data, **{"seed": 0, **FAST[algo], **kwargs})
+    name = next(n for n, a in ALGORITHMS.items() if a is algo)
+    return algo("MlpPolicy", env_id, expert_data=data, **{"seed": 0, **FAST.get(name, {}), **kwargs})
 
 
 @pytest.fixture
@@ -31,20 +38,26 @@ def data(request, cartpole_data, pendulum_data):
 
 
 def params(model):
-    out = {f"policy.{k}": v.clone() for k, v in model.policy.state_dict().items()}
-    if isinstance(model, MBIL):
-        out.update({f"flows.{k}": v.clone() for k, v in model.flows.state_dict().items()})
+    """Every saved torch state of the model (modules and optimisers), flattened."""
+    out = {}
+    for name in model._get_torch_save_params()[0]:
+        obj = model
+        for part in name.split("."):
+            obj = getattr(obj, part)
+        state = obj.state_dict()
+        if isinstance(obj, th.optim.Optimizer):
+            state = {f"{i}.{k}": v for i, s in state["state"].items() for k, v in s.items()}
+        out.update({f"{name}.{k}": v.clone() for k, v in state.items()})
     return out
 
 
 def assert_same_params(a, b):
     assert a.keys() == b.keys()
     for k in a:
-        assert th.equal(a[k], b[k]), k
+        th.testing.assert_close(a[k], b[k], rtol=0, atol=0, equal_nan=True, msg=k)
 
 
-@pytest.mark.parametrize("env_id", ENVS)
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize("algo, env_id", CASES)
 def test_learn_and_predict(algo, env_id, data):
     model = make(algo, env_id, data[env_id]).learn(50)
     assert model.num_timesteps == 50
@@ -57,8 +70,7 @@ def test_learn_and_predict(algo, env_id, data):
     assert len(actions) == 4
 
 
-@pytest.mark.parametrize("env_id", ENVS)
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize("algo, env_id", CASES)
 def test_save_load_identical(algo, env_id, data, tmp_path):
     model = make(algo, env_id, data[env_id]).learn(30)
     model.save(tmp_path / "model.zip")
@@ -101,8 +113,7 @@ def test_learning_continues_after_load(algo, data, tmp_path):
     assert changed
 
 
-@pytest.mark.parametrize("env_id", ENVS)
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize("algo, env_id", CASES)
 def test_same_seed_same_result(algo, env_id, data):
     a = make(algo, env_id, data[env_id]).learn(40)
     b = make(algo, env_id, data[env_id]).learn(40)
@@ -153,8 +164,9 @@ def test_callback_can_stop_training(algo, data):
     assert model.num_timesteps == 7
 
 
-def test_progress_bar(data):
-    make(BC, "CartPole-v1", data["CartPole-v1"]).learn(10, progress_bar=True)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_progress_bar(algo, data):
+    make(algo, "CartPole-v1", data["CartPole-v1"]).learn(10, progress_bar=True)
 
 
 @pytest.mark.parametrize("algo", ALGOS)
@@ -166,7 +178,11 @@ def test_logged_values(algo, data, tmp_path):
         rows = list(csv.DictReader(f))
     assert len(rows) == 2
     keys = set(rows[0])
-    assert {"train/bc_loss", "time/total_timesteps"} <= keys
+    assert "time/total_timesteps" in keys
+    train = [k for k in keys if k.startswith("train/") and k != "train/n_updates" and rows[0][k] != ""]
+    assert train and all(np.isfinite(float(rows[0][k])) for k in train)
+    if algo is not DSFN:  # DSFN's warm start is BC; its other terms appear in later phases
+        assert "train/bc_loss" in keys or "train/classification_loss" in keys
     if algo is MBIL:
         assert {"train/balance_loss", "train/residual_mean", "flows/transition_heldout_ll", "flows/p_heldout_ll"} <= keys
         assert np.isfinite(float(rows[0]["flows/p_heldout_ll"]))
@@ -229,7 +245,10 @@ def test_balance_diagnostics_split_the_residual(data):
     assert "mean_shift_nats" not in discrete and discrete["residual_mse"] >= 0
 
 
-@pytest.mark.parametrize("algo", ALGOS)
+BOX_ALGOS = [a for a in ALGOS if spaces.Box in a.supported_action_spaces]
+
+
+@pytest.mark.parametrize("algo", BOX_ALGOS)
 def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tmp_path):
     trajs = data["Pendulum-v1"]
     model = make(algo, "Pendulum-v1", trajs, policy_kwargs={"normalize_observations": True}).learn(20)
@@ -253,7 +272,7 @@ def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tm
     assert not plain.policy.normalize_observations and not bool(plain.policy.obs_stats_set)
 
 
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize("algo", BOX_ALGOS)
 def test_bounded_mean_stays_inside_the_action_bounds_and_is_saved(algo, data, tmp_path):
     """``bounded_mean``: the Gaussian's mean is tanh-squashed into the Box bounds; the density around it
     stays an unsquashed Gaussian in raw units (it still integrates to 1 over the real line)."""
@@ -271,3 +290,89 @@ def test_bounded_mean_stays_inside_the_action_bounds_and_is_saved(algo, data, tm
     assert loaded.policy.bounded_mean and th.equal(loaded.policy.mean_action(th.zeros(4, 3)), mean)
     with pytest.raises(ValueError, match="bounded_mean"):
         make(algo, "CartPole-v1", data["CartPole-v1"], policy_kwargs={"bounded_mean": True})
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_training_continued_after_load_equals_training_continued_in_memory(algo, data, tmp_path):
+    """Every torch state (networks, optimisers, an algorithm's own buffers) is in the zip."""
+    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(20)
+    model.save(tmp_path / "m.zip")
+    loaded = algo.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
+    assert_same_params(params(model), params(loaded))
+    for m in (model, loaded):
+        th.manual_seed(7)
+        m.learn(15, reset_num_timesteps=False)
+    assert_same_params(params(model), params(loaded))
+
+
+class NoStepping(gym.Wrapper):
+    """Raises if the env is stepped, or reset once armed (SB3's set-up resets it once before training)."""
+
+    armed = False
+
+    def step(self, action):
+        raise AssertionError("learn stepped the env")
+
+    def reset(self, **kwargs):
+        if NoStepping.armed:
+            raise AssertionError("learn reset the env after set-up")
+        return super().reset(**kwargs)
+
+
+@pytest.mark.parametrize("algo, env_id", CASES)
+def test_learn_never_steps_the_env(algo, env_id, data):
+    class Arm(BaseCallback):
+        def _on_training_start(self):
+            NoStepping.armed = True
+
+        def _on_step(self):
+            return True
+
+    NoStepping.armed = False
+    try:
+        make(algo, NoStepping(gym.make(env_id)), data[env_id]).learn(30, callback=Arm())
+    finally:
+        NoStepping.armed = False
+
+
+SKIP_ARGS = {"policy", "env", "expert_data", "policy_kwargs", "tensorboard_log", "verbose", "device", "_init_setup_model"}
+
+
+def _bad_values(default):
+    """Values of the wrong type or out of every sensible range for an argument with this default."""
+    if isinstance(default, bool):
+        return ["yes", 1.5]
+    if isinstance(default, int):
+        return ["abc", 1.5, -10**9]
+    if isinstance(default, float):
+        return ["fast", float("nan"), float("inf"), -1e9]
+    if isinstance(default, str):
+        return ["no-such-choice", 3]
+    if isinstance(default, (tuple, list)):
+        return [0.1, "ab", [-1.0]]
+    return []
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_every_bad_constructor_argument_is_a_value_error_naming_it(algo):
+    import inspect
+
+    env = "CartPole-v1"
+    checked = 0
+    for name, p in inspect.signature(algo.__init__).parameters.items():
+        if name in SKIP_ARGS or name == "self":
+            continue
+        values = _bad_values(p.default) + (["abc", -1] if name == "seed" else [])
+        for value in values:
+            if name == "log_density_floor" and isinstance(value, float) and np.isfinite(value):
+                continue  # any finite floor is valid
+            with pytest.raises(ValueError, match=name):
+                algo("MlpPolicy", env, **{name: value})
+            checked += 1
+    assert checked >= 10
+
+
+@pytest.mark.parametrize("algo", [a for a in ALGOS if spaces.Box not in a.supported_action_spaces])
+def test_discrete_only_algorithms_refuse_box_actions(algo):
+    with pytest.raises(ValueError, match="action_space: expected Discrete"):
+        algo("MlpPolicy", "Pendulum-v1")

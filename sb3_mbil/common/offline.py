@@ -70,6 +70,8 @@ class OfflineAlgorithm(BaseAlgorithm):
 
     policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MlpPolicy": MlpPolicy}
     supported_action_spaces: ClassVar[tuple[type[spaces.Space], ...]] = (spaces.Discrete, spaces.Box)
+    #: the algorithm's own policy defaults (e.g. a reference code's activation), under the user's policy_kwargs
+    default_policy_kwargs: ClassVar[dict[str, Any]] = {}
     policy: ImitationPolicy
 
     def __init__(
@@ -127,7 +129,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         self._check_hyperparameters()
         self._setup_lr_schedule()
         self.set_random_seed(self.seed)
-        kwargs = dict(self.policy_kwargs)
+        kwargs = {**self.default_policy_kwargs, **self.policy_kwargs}
         kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": self.weight_decay}
         self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs).to(self.device)
         self._on_new_data()
@@ -210,6 +212,14 @@ class OfflineAlgorithm(BaseAlgorithm):
         return take(samples, self._sample_indices(len(samples.observations)))
 
     # ------------------------------------------------------------------ hooks
+    def _optimizers(self) -> list[th.optim.Optimizer]:
+        """The optimisers that follow the learning-rate schedule (extend with an algorithm's own)."""
+        return [self.policy.optimizer]
+
+    def training_complete(self) -> bool:
+        """True when the method has nothing left to do (an algorithm with a finite schedule); ``learn`` then returns."""
+        return False
+
     def _prepare_training(self) -> None:
         """Called once at the start of every ``learn`` (after the logger is set)."""
 
@@ -253,9 +263,9 @@ class OfflineAlgorithm(BaseAlgorithm):
         callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
-        while self.num_timesteps < total_timesteps:
+        while self.num_timesteps < total_timesteps and not self.training_complete():
             self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
-            self._update_learning_rate(self.policy.optimizer)
+            self._update_learning_rate(self._optimizers())
             self._train_step()
             self.num_timesteps += 1
             self._n_updates += 1

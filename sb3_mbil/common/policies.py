@@ -131,21 +131,29 @@ class ImitationPolicy(BasePolicy):
         self.obs_stats_set.fill_(True)
 
     # ------------------------------------------------------------------ heads
-    def _latent(self, obs: th.Tensor) -> th.Tensor:
+    def features(self, obs: th.Tensor) -> th.Tensor:
+        """The network's input: flat observations, standardised when ``normalize_observations`` (other networks
+        of an algorithm, e.g. its critics, read the same input)."""
         features = self.extract_features(obs, self.features_extractor)
         if self.normalize_observations:
             features = ((features - self.obs_mean) / self.obs_std).clamp(-self.OBS_CLIP, self.OBS_CLIP)
-        return self.latent(features)
+        return features
 
-    def heads(self, obs: th.Tensor) -> tuple[th.Tensor, ...]:
-        """The network's outputs: ``(logits,)`` for Discrete, ``(mean, log_std)`` for Box."""
-        h = self._latent(obs)
+    def _latent(self, obs: th.Tensor) -> th.Tensor:
+        return self.latent(self.features(obs))
+
+    def heads_from_latent(self, h: th.Tensor) -> tuple[th.Tensor, ...]:
+        """:meth:`heads` from the last hidden layer's output."""
         if self.discrete:
             return (self.logits_head(h),)
         mean = self.mean_head(h)
         if self.bounded_mean:
             mean = self.action_center + self.action_half_range * th.tanh(mean)
         return mean, self.log_std_head(h).clamp(*self.log_std_bounds)
+
+    def heads(self, obs: th.Tensor) -> tuple[th.Tensor, ...]:
+        """The network's outputs: ``(logits,)`` for Discrete, ``(mean, log_std)`` for Box."""
+        return self.heads_from_latent(self._latent(obs))
 
     def log_prob_from_heads(self, heads: Sequence[th.Tensor], actions: th.Tensor) -> th.Tensor:
         """log pi(a | s) from :meth:`heads`: log-mass (Discrete) or log-density in raw action units (Box)."""

@@ -1,0 +1,4 @@
+from sb3_mbil.avril.avril import AVRIL
+from sb3_mbil.avril.policies import MlpPolicy
+
+__all__ = ["AVRIL", "MlpPolicy"]
