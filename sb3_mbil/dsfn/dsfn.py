@@ -26,27 +26,32 @@ class DSFN(OfflineAlgorithm):
 
     1. **Warm start** (``warm_start_steps``): a BC classifier (the policy, cross-entropy). Its last hidden
        layer, frozen, gives the features phi(s, a) = [h(s), onehot(a)] (k = hidden size + actions).
-    2. The expert's feature expectation mu_E = mean over trajectories of (1 - gamma) sum_t gamma^t phi(s_t, a_t).
-    3. Apprenticeship iterations (Abbeel and Ng's projection method), starting from the uniform policy pi_0:
+    2. The expert's feature expectation mu_E = mean over trajectories of (1 - gamma) sum_t gamma^t phi(s_t, a_t)
+       (a trajectory cut by a time limit: sum_t gamma^t phi(s_t, a_t) / sum_t gamma^t, the discounted mean of
+       its observed steps, since the successor features bootstrap past the cut; a deviation for short data).
+    3. Apprenticeship iterations (Abbeel and Ng's projection method), starting from pi_0 = the warm-start
+       classifier (greedy), as in the reference code:
 
        - **successor features** of the current policy pi_i (``sf_steps``): psi(s, a) trained by TD on the
          batch, psi(s, a) <- phi(s, a) + gamma (1 - done) psi'(s', pi_i(s')) (psi' a target copy);
          mu_i = (1 - gamma) mean over the trajectories' first states s0 of psi(s0, pi_i(s0));
        - **reward weights**: mu_bar <- the projection of mu_E on the line through mu_bar and mu_i
-         (mu_bar = mu_0 at first), w = mu_E - mu_bar, margin t_i = ||w||; stop when t_i < ``tolerance``
-         or after ``max_iterations``;
+         (mu_bar = mu_0 at first), margin t_i = ||mu_E - mu_bar||, w = (mu_E - mu_bar) / t_i (unit norm,
+         as in the reference); stop when t_i < ``tolerance`` or after ``max_iterations``;
        - **batch DQN** on the reward r = w . phi(s, a) (``dqn_steps``, a fresh Q each iteration, Huber
          loss, target copy): pi_{i+1} = greedy Q.
 
-    The returned policy is the pi_i (i >= 1) whose mu_i was closest to mu_E. ``learn`` stops when the
-    schedule is complete; :attr:`schedule_steps` is its length at most. The policy network is the
+    The returned policy is the pi_i (pi_0 included) whose mu_i was closest to mu_E; the reference returns
+    the mixture of the pi_i whose mixed mu is closest (a mixture is not one network). ``learn`` stops when
+    the schedule is complete; :attr:`schedule_steps` is its length at most. The policy network is the
     classifier during the warm start and Q after it.
 
     Defaults are the reference settings (CKIL appendix): warm start 50 000 steps, DQN 2x64 30 000 steps,
     successor features 2x64 50 000 steps, Adam 3e-4, gamma 0.99, at most 10 iterations, precision 0.01;
-    2x64 ELU networks and batch 64 (the comparison's common settings). Deviations: hard target updates
-    every ``target_update_interval`` steps (the reference's DQN details are not given); the
-    projection method rather than the max-margin QP (the paper allows both).
+    2x64 ELU networks and batch 64 (the comparison's common settings); hard target updates every 500 steps
+    (the reference's successor-feature network). Deviations: Abbeel and Ng's projection formula (the
+    reference code's parenthesisation of it differs), no early stop on held-out action matching, and the
+    time-limit normalisation of mu_E above.
 
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
@@ -178,9 +183,7 @@ class DSFN(OfflineAlgorithm):
         return net(self.policy.features(obs))[0].view(len(obs), self.n_actions, self.n_features)
 
     def _policy_probs(self, obs: th.Tensor) -> th.Tensor:
-        """pi_i(. | s): uniform at iteration 0, then greedy in Q (one-hot)."""
-        if int(self.state.iteration) == 0:
-            return th.full((len(obs), self.n_actions), 1.0 / self.n_actions, device=self.device)
+        """pi_i(. | s), greedy in the policy network (the classifier for pi_0, then Q), one-hot."""
         return nn.functional.one_hot(self.policy.logits(obs).argmax(-1), self.n_actions).float()
 
     @th.no_grad()
@@ -189,7 +192,10 @@ class DSFN(OfflineAlgorithm):
         for t in self.demonstrations():
             obs, act = self._to_tensor(t.observations[: len(t)], "obs"), self._to_tensor(t.actions, "act")
             discount = self.gamma ** th.arange(len(t), device=self.device, dtype=th.float32)
-            mus.append((1 - self.gamma) * (discount.view(-1, 1) * self.phi(obs, act)).sum(0))
+            # a terminated episode has zero features after its end; one cut by a time limit would go on:
+            # normalise by the discount mass of its observed steps (as psi bootstraps past the cut)
+            scale = (1 - self.gamma) if t.terminated else 1.0 / discount.sum()
+            mus.append(scale * (discount.view(-1, 1) * self.phi(obs, act)).sum(0))
         return th.stack(mus).mean(0)
 
     @th.no_grad()
@@ -282,16 +288,16 @@ class DSFN(OfflineAlgorithm):
             denom = float(d @ d)
             if denom > 0:
                 st.mu_bar.add_(float(d @ (st.mu_expert - st.mu_bar)) / denom * d)
-            distance = float((st.mu_expert - mu).norm())
-            if distance < float(st.best_distance):
-                st.best_distance.fill_(distance)
-                self.best_policy.load_state_dict(self.policy.state_dict())
-        st.w.copy_(st.mu_expert - st.mu_bar)
-        st.margins[i] = st.w.norm()
-        self.logger.record("train/margin", float(st.margins[i]))
-        if float(st.margins[i]) < self.tolerance or i >= self.max_iterations:
-            if i >= 1:
-                self.policy.load_state_dict(self.best_policy.state_dict())
+        distance = float((st.mu_expert - mu).norm())
+        if distance < float(st.best_distance):
+            st.best_distance.fill_(distance)
+            self.best_policy.load_state_dict(self.policy.state_dict())
+        margin = (st.mu_expert - st.mu_bar).norm()
+        st.margins[i] = margin
+        st.w.copy_((st.mu_expert - st.mu_bar) / margin.clamp(min=1e-12))
+        self.logger.record("train/margin", float(margin))
+        if float(margin) < self.tolerance or i >= self.max_iterations:
+            self.policy.load_state_dict(self.best_policy.state_dict())
             st.enter("done")
             return
         st.iteration += 1

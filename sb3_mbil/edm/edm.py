@@ -127,14 +127,17 @@ class EDM(OfflineAlgorithm):
         idx = self._sample_indices(len(self.sgld.samples))
         z = self.sgld.samples[idx]
         restart = th.rand(len(z), 1, device=self.device) < self.sgld_reinit_prob
-        z = th.where(restart, th.rand_like(z) * 2 - 1, z)
+        z = self.langevin(th.where(restart, th.rand_like(z) * 2 - 1, z))
+        self.sgld.samples[idx] = z
+        return self.sgld.to_raw(z)
+
+    def langevin(self, z: th.Tensor) -> th.Tensor:
+        """``sgld_steps`` SGLD steps on standardised states z: z <- z + step * grad_z LSE f + noise * N(0, I)."""
         for _ in range(self.sgld_steps):
             z = z.detach().requires_grad_(True)
             grad = th.autograd.grad(self.energy(self.sgld.to_raw(z)).sum(), z)[0]
             z = z + self.sgld_step_size * grad + self.sgld_noise * th.randn_like(z)
-        z = z.detach()
-        self.sgld.samples[idx] = z
-        return self.sgld.to_raw(z)
+        return z.detach()
 
     def _train_step(self) -> None:
         batch = self.sample(self.expert_pairs())
