@@ -12,10 +12,15 @@ import pytest
 import yaml
 
 REPO = Path(__file__).resolve().parent.parent
+from sb3_mbil import ALGORITHMS
+
 TINY = {
     "mbil": ["--hyperparams", "flow_max_steps:40", "noise_grid:[0.1]", "flow_hidden:[32]"],
-    "bc": [],
+    "edm": ["--hyperparams", "sgld_steps:2", "sgld_buffer_size:100"],
+    "dsfn": ["--hyperparams", "warm_start_steps:20", "dqn_steps:10", "sf_steps:10", "max_iterations:2"],
 }
+# the paper's discrete baselines are checked where their issue asks: LunarLander-v3
+ZOO_ENV = {name: "CartPole-v1" if name in ("mbil", "bc") else "LunarLander-v3" for name in ALGORITHMS}
 
 
 def run(args, cwd, timeout=600, env=None):
@@ -33,22 +38,23 @@ def test_interpreter_start_imports_neither_torch_nor_rl_zoo3(tmp_path):
     assert out.stdout.strip() == "True []"
 
 
-@pytest.mark.parametrize("algo", ["mbil", "bc"])
+@pytest.mark.parametrize("algo", list(ALGORITHMS))
 def test_train_enjoy_record_video(algo, tmp_path):
-    train = run(["-m", "rl_zoo3.train", "--algo", algo, "--env", "CartPole-v1", "-n", "60", "--eval-freq", "30",
-                 "--eval-episodes", "1", "--num-threads", "1", "--seed", "0", "-f", "logs", *TINY[algo]], tmp_path)
+    env = ZOO_ENV[algo]
+    train = run(["-m", "rl_zoo3.train", "--algo", algo, "--env", env, "-n", "60", "--eval-freq", "30",
+                 "--eval-episodes", "1", "--num-threads", "1", "--seed", "0", "-f", "logs", *TINY.get(algo, [])], tmp_path)
     assert train.returncode == 0, train.stderr[-3000:]
-    run_dir = tmp_path / "logs" / algo / "CartPole-v1_1"
-    assert (run_dir / "best_model.zip").is_file() and (run_dir / "CartPole-v1.zip").is_file()
-    config = dict(yaml.unsafe_load((run_dir / "CartPole-v1" / "config.yml").read_text()))
-    assert config["expert_pool"] == "CartPole-v1" and config["n_expert_trajectories"] == 1
+    run_dir = tmp_path / "logs" / algo / f"{env}_1"
+    assert (run_dir / "best_model.zip").is_file() and (run_dir / f"{env}.zip").is_file()
+    config = dict(yaml.unsafe_load((run_dir / env / "config.yml").read_text()))
+    assert config["expert_pool"] == env and config["n_expert_trajectories"] == 1
     assert "Eval num_timesteps=60" in train.stdout  # EvalCallback counts gradient steps
 
-    enjoy = run(["-m", "rl_zoo3.enjoy", "--algo", algo, "--env", "CartPole-v1", "-f", "logs", "--no-render", "-n", "30"],
+    enjoy = run(["-m", "rl_zoo3.enjoy", "--algo", algo, "--env", env, "-f", "logs", "--no-render", "-n", "30"],
                 tmp_path)
     assert enjoy.returncode == 0, enjoy.stderr[-3000:]
 
-    video = run(["-m", "rl_zoo3.record_video", "--algo", algo, "--env", "CartPole-v1", "-f", "logs", "-n", "20",
+    video = run(["-m", "rl_zoo3.record_video", "--algo", algo, "--env", env, "-f", "logs", "-n", "20",
                  "-o", "videos"], tmp_path)
     assert video.returncode == 0, video.stderr[-3000:]
     assert list((tmp_path / "videos").glob("*.mp4"))
@@ -68,6 +74,28 @@ def test_mujoco_entry_trains_on_its_shipped_pool(algo, tmp_path):
     assert model.policy.normalize_observations and bool(model.policy.obs_stats_set)
     np.testing.assert_allclose(model.policy.obs_mean.numpy(), drawn.mean(0), rtol=1e-5, atol=1e-5)
     assert model.num_timesteps == 20
+
+
+def test_an_algorithm_without_its_own_sampler_is_refused_at_registration(monkeypatch):
+    from sb3_mbil import zoo
+
+    zoo.check_registration()  # every registered algorithm has its sampler, converter and hyperparameters
+    monkeypatch.delitem(zoo.SAMPLERS, "rcal")
+    with pytest.raises(RuntimeError, match=r"ALGORITHMS\['rcal'\]: expected an Optuna sampler"):
+        zoo.check_registration()
+
+
+@pytest.mark.parametrize("algo", list(ALGORITHMS))
+def test_every_sampler_gives_constructor_arguments(algo):
+    """Each algorithm's Optuna sampler proposes settings its constructor accepts."""
+    import gymnasium as gym
+
+    from sb3_mbil import zoo
+
+    for seed in range(3):
+        trial = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=seed)).ask()
+        params = zoo.SAMPLERS[algo](trial, 2, 1, {})
+        ALGORITHMS[algo]("MlpPolicy", gym.make("CartPole-v1"), **params)
 
 
 def test_number_of_trajectories_is_a_hyperparameter(tmp_path):
