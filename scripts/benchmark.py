@@ -11,12 +11,14 @@ import argparse
 import json
 import logging
 
+from sb3_mbil import ALGORITHMS
 from sb3_mbil.benchmark.cli import parse_seeds
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--algos", nargs="+", default=["mbil", "bc"])
+    p.add_argument("--algos", nargs="+", default=["mbil", "bc"], choices=sorted(ALGORITHMS),
+                   help="algorithms of sb3_mbil.ALGORITHMS")
     p.add_argument("--envs", nargs="+", default=["CartPole-v1", "Acrobot-v1", "LunarLander-v3"])
     p.add_argument("--n-trajectories", nargs="+", type=int, default=[1, 3, 7, 10, 15])
     p.add_argument("--seeds", type=parse_seeds, default=list(range(10)), help="e.g. 0-9 or 0,3,5")

@@ -9,6 +9,7 @@ Each algorithm uses its settings from zoo_hyperparams/ (gradient steps included)
 import argparse
 import json
 
+from sb3_mbil import ALGORITHMS
 from sb3_mbil.experiments import compare
 
 
@@ -19,7 +20,8 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--eval-episodes", type=int, default=300)
     p.add_argument("--steps", type=int, default=None, help="override the gradient steps of the settings")
-    p.add_argument("--algos", nargs="+", default=["mbil", "bc"])
+    p.add_argument("--algos", nargs="+", default=["mbil", "bc"], choices=sorted(ALGORITHMS),
+                   help="algorithms of sb3_mbil.ALGORITHMS")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     a = p.parse_args(argv)
     r = compare(a.env, a.n_trajectories, a.seed, a.eval_episodes, tuple(a.algos), a.steps)
