@@ -1,4 +1,5 @@
-"""Wall time of MBIL (flow fitting and policy updates, separately) against BC on the same data."""
+"""Wall time of an algorithm of :data:`sb3_mbil.ALGORITHMS` (its set-up, e.g. MBIL's flow fitting, and its
+updates, separately) against BC on the same data, measured side by side in one process."""
 
 from __future__ import annotations
 
@@ -8,44 +9,49 @@ from typing import Any
 
 import torch as th
 
-from sb3_mbil.bc import BC
 from sb3_mbil.common.demonstrations import ExpertData
-from sb3_mbil.mbil import MBIL
 
 
 def measure_speed(env_id: str, expert_data: ExpertData, steps: int = 2000, repeats: int = 3, seed: int = 0,
-                  mbil_kwargs: dict[str, Any] | None = None, bc_kwargs: dict[str, Any] | None = None,
+                  algo: str = "mbil", algo_kwargs: dict[str, Any] | None = None, bc_kwargs: dict[str, Any] | None = None,
                   budget: int = 10_000) -> dict[str, Any]:
-    """Time ``steps`` policy updates of MBIL and BC, interleaved ``repeats`` times; report medians and ratios.
+    """Time ``steps`` updates of ``algo`` and of BC, interleaved ``repeats`` times; report medians and ratios.
 
-    ``total_ratio`` is MBIL's flow fitting plus ``budget`` updates over BC's ``budget`` updates.
+    ``setup_seconds`` is what the algorithm does once before its updates (``learn(0)``: MBIL fits its flows
+    there). ``total_ratio`` is the set-up plus ``budget`` updates over BC's ``budget`` updates.
     """
+    from sb3_mbil import ALGORITHMS, BC
+
+    if algo not in ALGORITHMS:
+        raise ValueError(f"algo: expected one of {sorted(ALGORITHMS)}, found {algo!r}")
     th.set_num_threads(1)
-    mbil = MBIL("MlpPolicy", env_id, expert_data=expert_data, seed=seed, **(mbil_kwargs or {}))
+    model = ALGORITHMS[algo]("MlpPolicy", env_id, expert_data=expert_data, seed=seed, **(algo_kwargs or {}))
     t0 = time.perf_counter()
-    mbil.fit_flows()
-    fit = time.perf_counter() - t0
+    model.learn(0)
+    setup = time.perf_counter() - t0
     bc = BC("MlpPolicy", env_id, expert_data=expert_data, seed=seed, **(bc_kwargs or {}))
-    times: dict[str, list[float]] = {"mbil": [], "bc": []}
+    bc.learn(0)
+    times: dict[str, list[float]] = {"algo": [], "bc": []}
     for _ in range(repeats):
-        for name, model in (("mbil", mbil), ("bc", bc)):
+        for name, m in (("algo", model), ("bc", bc)):
             t0 = time.perf_counter()
-            model.learn(steps, reset_num_timesteps=False, log_interval=-1)
+            m.learn(steps, reset_num_timesteps=False, log_interval=-1)
             times[name].append(time.perf_counter() - t0)
-    mbil_s, bc_s = statistics.median(times["mbil"]), statistics.median(times["bc"])
-    return {
-        "env": env_id,
-        "n_tuples": mbil.flow_report["n_tuples"],
-        "steps": steps,
-        "flow_fit_seconds": round(fit, 2),
-        # CPU seconds of each model's fit (noise levels tried, early stopping, refit): where the fitting time goes
-        "transition_fit_cpu_seconds": round(mbil.flow_report["transition"]["seconds"], 2),
-        "next_action_fit_cpu_seconds": round(mbil.flow_report["next_action"]["seconds"], 2),
-        "mbil_policy_seconds": round(mbil_s, 3),
-        "bc_seconds": round(bc_s, 3),
-        "mbil_ms_per_update": round(1000 * mbil_s / steps, 4),
-        "bc_ms_per_update": round(1000 * bc_s / steps, 4),
-        "policy_update_ratio": round(mbil_s / bc_s, 3),
-        "budget": budget,
-        "total_ratio": round((fit + mbil_s * budget / steps) / (bc_s * budget / steps), 3),
-    }
+    algo_s, bc_s = statistics.median(times["algo"]), statistics.median(times["bc"])
+    out: dict[str, Any] = {"env": env_id, "algo": algo, "n_pairs": len(model.expert_pairs().observations), "steps": steps,
+                           "setup_seconds": round(setup, 2)}
+    report = getattr(model, "flow_report", None)
+    if report is not None:  # MBIL: where the fitting time goes (CPU seconds of each model's fit)
+        out.update(n_tuples=report["n_tuples"],
+                   transition_fit_cpu_seconds=round(report["transition"]["seconds"], 2),
+                   next_action_fit_cpu_seconds=round(report["next_action"]["seconds"], 2))
+    out.update(
+        algo_seconds=round(algo_s, 3),
+        bc_seconds=round(bc_s, 3),
+        algo_ms_per_update=round(1000 * algo_s / steps, 4),
+        bc_ms_per_update=round(1000 * bc_s / steps, 4),
+        policy_update_ratio=round(algo_s / bc_s, 3),
+        budget=budget,
+        total_ratio=round((setup + algo_s * budget / steps) / (bc_s * budget / steps), 3),
+    )
+    return out

@@ -1,13 +1,15 @@
-"""MBIL's wall time (flow fitting and policy updates separately) against BC's, on the same data, in one run.
+"""An algorithm's wall time (its set-up, e.g. MBIL's flow fitting, and its updates separately) against BC's,
+on the same data, in one run.
 
     python scripts/bench_speed.py --env LunarLander-v3 --n-trajectories 1 15 --steps 2000 --out results/speed.csv
+    python scripts/bench_speed.py --algo edm --env LunarLander-v3 --n-trajectories 1 --out results/speed_edm.csv
 """
 
 import argparse
 import csv
 import io
 
-from sb3_mbil import load_demonstrations
+from sb3_mbil import ALGORITHMS, load_demonstrations
 from sb3_mbil.benchmark.grid import git_commit
 from sb3_mbil.benchmark.results import write_text
 from sb3_mbil.speed import measure_speed
@@ -15,6 +17,7 @@ from sb3_mbil.speed import measure_speed
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--algo", default="mbil", choices=sorted(ALGORITHMS), help="algorithm of sb3_mbil.ALGORITHMS")
     p.add_argument("--env", default="LunarLander-v3")
     p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 3, 7, 10, 15])
     p.add_argument("--budget", type=int, default=10_000, help="policy updates of a full run (for the total ratio)")
@@ -26,7 +29,7 @@ def main(argv=None):
     rows, commit = [], git_commit()
     for n in a.n_trajectories:
         demos = load_demonstrations(a.env).sample(n, seed=a.seed)
-        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed, budget=a.budget), "commit": commit}
+        row = {"n_trajectories": n, **measure_speed(a.env, demos, a.steps, a.repeats, a.seed, algo=a.algo, budget=a.budget), "commit": commit}
         rows.append(row)
         print(", ".join(f"{k}={v}" for k, v in row.items()), flush=True)
     if a.out:

@@ -376,3 +376,12 @@ def test_every_bad_constructor_argument_is_a_value_error_naming_it(algo):
 def test_discrete_only_algorithms_refuse_box_actions(algo):
     with pytest.raises(ValueError, match="action_space: expected Discrete"):
         algo("MlpPolicy", "Pendulum-v1")
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_learn_refuses_a_step_count_that_is_not_one(algo, data):
+    model = make(algo, "CartPole-v1", data["CartPole-v1"])
+    for bad in (-5, 1.5, True, "10"):
+        with pytest.raises(ValueError, match="total_timesteps"):
+            model.learn(bad)
+    assert model.learn(0).num_timesteps == 0

@@ -212,15 +212,20 @@ def test_curve_plot_keeps_each_variants_colour_across_panels(tmp_path):
     assert sorted(legend) == ["bc", "bc_wd1e-3", "expert", "mbil"]
 
 
-def test_measure_speed_reports_fit_and_update_times(cartpole_data):
+@pytest.mark.parametrize("algo", ["mbil", "rcal"])
+def test_measure_speed_reports_fit_and_update_times(algo, cartpole_data):
     from sb3_mbil.speed import measure_speed
 
-    r = measure_speed("CartPole-v1", cartpole_data, steps=200, repeats=1, budget=1000, mbil_kwargs=TINY_FLOWS)
-    assert r["n_tuples"] > 0 and r["steps"] == 200
-    assert r["flow_fit_seconds"] > 0 and r["transition_fit_cpu_seconds"] > 0 and r["next_action_fit_cpu_seconds"] > 0
-    expected = (r["flow_fit_seconds"] + r["mbil_policy_seconds"] * 5) / (r["bc_seconds"] * 5)  # budget = 5 blocks
-    assert r["total_ratio"] == pytest.approx(expected, rel=0.05)
-    assert r["policy_update_ratio"] == pytest.approx(r["mbil_policy_seconds"] / r["bc_seconds"], rel=0.05)
+    kwargs = TINY_FLOWS if algo == "mbil" else {}
+    r = measure_speed("CartPole-v1", cartpole_data, steps=200, repeats=1, budget=1000, algo=algo, algo_kwargs=kwargs)
+    assert r["algo"] == algo and r["n_pairs"] > 0 and r["steps"] == 200
+    if algo == "mbil":
+        assert r["setup_seconds"] > 0 and r["transition_fit_cpu_seconds"] > 0 and r["next_action_fit_cpu_seconds"] > 0
+    expected = (r["setup_seconds"] + r["algo_seconds"] * 5) / (r["bc_seconds"] * 5)  # budget = 5 blocks
+    assert r["total_ratio"] == pytest.approx(expected, rel=0.05, abs=0.01)
+    assert r["policy_update_ratio"] == pytest.approx(r["algo_seconds"] / r["bc_seconds"], rel=0.05)
+    with pytest.raises(ValueError, match="algo: expected one of"):
+        measure_speed("CartPole-v1", cartpole_data, algo="nope")
 
 
 def test_parse_variants_checks_each_entry():

@@ -248,10 +248,12 @@ class OfflineAlgorithm(BaseAlgorithm):
         """
         if self.env is None:
             raise ValueError("env: expected an env to learn (load the model with env=...), found None")
-        if not isinstance(total_timesteps, (int, np.integer)) and not (
-            isinstance(total_timesteps, float) and total_timesteps.is_integer()
-        ):
-            raise ValueError(f"total_timesteps: expected an integer number of gradient steps, found {total_timesteps!r}")
+        if isinstance(total_timesteps, bool) or not (
+            isinstance(total_timesteps, (int, np.integer))
+            or (isinstance(total_timesteps, float) and total_timesteps.is_integer())
+        ) or total_timesteps < 0:
+            raise ValueError(f"total_timesteps: expected an integer number of gradient steps >= 0 (0 prepares the "
+                             f"algorithm, e.g. fits MBIL's flows, and trains nothing), found {total_timesteps!r}")
         total_timesteps, callback = self._setup_learn(
             int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
         )
