@@ -93,7 +93,7 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     diagnostics = {}
     if report:
         diagnostics = {
-            "target_mean": round(float(model._targets.mean()), 4),
+            "target_mean": round(float(model.tuple_targets().mean()), 4),
             "p_heldout_ll": round(report["p_heldout_ll"], 4),
             "transition_heldout_ll": round(report["transition_heldout_ll"], 4),
             "next_action_noise": report["next_action"]["noise"],

@@ -243,8 +243,11 @@ class MBIL(OfflineAlgorithm):
         return th.nan_to_num(target, nan=self.log_density_floor).clamp(min=self.log_density_floor)
 
     def tuple_targets(self) -> th.Tensor:
-        """The balance target of every expert tuple (what the policy's log pi(a' | s') is regressed on)."""
-        return self.balance_target(*self.expert_tuples())
+        """The balance target of every expert tuple (what the policy's log pi(a' | s') is regressed on); computed
+        once per fitted flows and data."""
+        if self._targets is None:
+            self._targets = self.balance_target(*self.expert_tuples())
+        return self._targets
 
     @th.no_grad()
     def balance_diagnostics(self) -> dict[str, Any]:
@@ -293,14 +296,13 @@ class MBIL(OfflineAlgorithm):
     def _prepare_training(self) -> None:
         if not bool(self.flows.fitted):
             self.fit_flows()
-        if self._targets is None:
-            self._targets = self.tuple_targets()
+        self.tuple_targets()
         if self.flow_report is not None:
             for key in ("p_heldout_ll", "transition_heldout_ll", "fit_seconds"):
                 self.logger.record(f"flows/{key}", self.flow_report[key])
             self.logger.record("flows/transition_noise", self.flow_report["transition"]["noise"])
             self.logger.record("flows/next_action_noise", self.flow_report["next_action"]["noise"])
-        self.logger.record("flows/target_mean", float(self._targets.mean()))
+        self.logger.record("flows/target_mean", float(self.tuple_targets().mean()))
 
     def _train_step(self) -> None:
         pairs, tuples = self.expert_pairs(), self.expert_tuples()
