@@ -124,9 +124,8 @@ def test_box_actions_outside_bounds():
 
 @pytest.mark.parametrize("algo", [MBIL, BC])
 def test_algorithms_refuse_bad_data_before_training(algo):
-    model = algo("MlpPolicy", "CartPole-v1", expert_data=[(np.full((6, 4), np.nan), np.zeros(5, dtype=int))])
     with pytest.raises(ValueError, match="observations: expected finite"):
-        model.learn(5)
+        algo("MlpPolicy", "CartPole-v1", expert_data=[(np.full((6, 4), np.nan), np.zeros(5, dtype=int))])
     with pytest.raises(ValueError, match="expert_data: expected demonstrations"):
         algo("MlpPolicy", "CartPole-v1").learn(5)
 

@@ -53,13 +53,8 @@ def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -
 
 
 def write_text(path: str | os.PathLike, text: str) -> None:
-    """Write a whole text file or nothing: a temporary file in the same folder, then renamed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    """Write a whole text file or nothing (a temporary file in the same folder, then renamed)."""
+    from sb3_mbil.common.files import atomic_write
+
+    with atomic_write(path) as tmp:
         tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -39,10 +38,18 @@ def _ensure_numeric(name: str, array: np.ndarray) -> None:
         raise ValueError(f"{name}: expected a real numeric dtype (integer or float), found dtype={array.dtype}")
 
 
+#: Largest magnitude accepted in the data: squares and sums of squares of larger values overflow float32.
+MAX_ABS_VALUE = 1e15
+
+
 def _ensure_finite(name: str, array: np.ndarray) -> None:
     if np.issubdtype(array.dtype, np.floating) and not np.all(np.isfinite(array)):
         bad = np.argwhere(~np.isfinite(array))[0]
         raise ValueError(f"{name}: expected finite values, found {array[tuple(bad)]} at index {tuple(int(i) for i in bad)}")
+    if array.size and np.abs(array).max() > MAX_ABS_VALUE:
+        bad = np.unravel_index(int(np.abs(array).argmax()), array.shape)
+        raise ValueError(f"{name}: expected values of magnitude <= {MAX_ABS_VALUE:g} (larger ones overflow float32 "
+                         f"arithmetic in training), found {array[bad]} at index {tuple(int(i) for i in bad)}")
 
 
 @dataclass(frozen=True)
@@ -233,6 +240,16 @@ class Demonstrations:
                     f"trajectories[{i}].observations: expected a dtype castable to {observation_space.dtype}, "
                     f"found {t.observations.dtype}"
                 )
+            low, high = np.broadcast_to(observation_space.low, observation_space.shape), np.broadcast_to(
+                observation_space.high, observation_space.shape)
+            tol = 1e-5 * (1 + np.abs(np.where(np.isfinite(high - low), high - low, 0.0)))
+            outside = (t.observations < low - tol) | (t.observations > high + tol)
+            if np.any(outside):
+                idx = tuple(int(k) for k in np.argwhere(outside)[0])
+                raise ValueError(
+                    f"trajectories[{i}].observations: expected values within the observation space bounds (dimension "
+                    f"{idx[1:]}: [{low[idx[1:]]}, {high[idx[1:]]}]), found {t.observations[idx]} at index {idx}"
+                )
             _check_actions(f"trajectories[{i}].actions", t.actions, action_space)
 
     # ------------------------------------------------------------------ files
@@ -253,25 +270,17 @@ class Demonstrations:
             "episode_returns": self.episode_returns,
             "metadata_json": np.array(json.dumps(self.metadata, sort_keys=True, default=str)),
         }
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez_compressed(f, **arrays)
-                f.flush()
-                os.fsync(f.fileno())
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        from sb3_mbil.common.files import atomic_write
+
+        with atomic_write(path) as tmp, open(tmp, "wb") as f:
+            np.savez_compressed(f, **arrays)
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Demonstrations:
         path = Path(path)
+        if path.is_dir():
+            raise ValueError(f"expert_data: expected a .npz file, found a directory: {path}")
         if not path.is_file():
             raise FileNotFoundError(f"expert data file not found: {path}")
         if not zipfile.is_zipfile(path):
@@ -286,6 +295,14 @@ class Demonstrations:
         missing = [k for k in _REQUIRED_KEYS if k not in arrays]
         if missing:
             raise ValueError(f"{path}: expected keys {list(_REQUIRED_KEYS)}, missing {missing}")
+        for key in ("observations", "actions", "n_observations", "n_actions", "terminated", "truncated"):
+            if arrays[key].ndim == 0:
+                raise ValueError(f"{path}: {key}: expected an array with one entry per {'step' if key in ('observations', 'actions') else 'trajectory'}, "
+                                 f"found a 0-d value {arrays[key]!r}")
+        for key in ("n_observations", "n_actions"):
+            if arrays[key].ndim != 1 or not np.issubdtype(arrays[key].dtype, np.integer) or np.any(arrays[key] < 0):
+                raise ValueError(f"{path}: {key}: expected a 1-d array of non-negative integers, found dtype "
+                                 f"{arrays[key].dtype} and shape {arrays[key].shape}")
         n_obs, n_act = arrays["n_observations"], arrays["n_actions"]
         n = len(n_act)
         for key in ("n_observations", "terminated", "truncated"):
@@ -299,7 +316,14 @@ class Demonstrations:
         returns = arrays.get("episode_returns", np.full(n, np.nan))
         meta = {}
         if "metadata_json" in arrays:
-            meta = json.loads(str(arrays["metadata_json"]))
+            try:
+                meta = json.loads(str(arrays["metadata_json"]))
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}: metadata_json: expected a JSON object, found unreadable JSON ({e})") from None
+            if not isinstance(meta, dict):
+                raise ValueError(f"{path}: metadata_json: expected a JSON object, found {type(meta).__name__}")
+        if len(returns) != n:
+            raise ValueError(f"{path}: episode_returns: expected {n} entries (one per trajectory), found {len(returns)}")
         obs_splits = np.split(arrays["observations"], np.cumsum(n_obs)[:-1])
         act_splits = np.split(arrays["actions"], np.cumsum(n_act)[:-1])
         trajs = []
@@ -379,7 +403,7 @@ def available_pools() -> list[str]:
 def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
     """Load demonstrations from a ``.npz`` file, or a shipped expert pool by env id (``"CartPole-v1"``)."""
     path = Path(path_or_name)
-    if path.is_file():
+    if path.is_file() or path.is_dir():
         return Demonstrations.load(path)
     name = str(path_or_name)
     if name in available_pools():

@@ -8,10 +8,17 @@ for evaluation only. One gradient step is one timestep and one
 
 from __future__ import annotations
 
+import io
+import json
+import os
 import sys
 import time
+import warnings
+import zipfile
+from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
+import gymnasium as gym
 import numpy as np
 import torch as th
 from gymnasium import spaces
@@ -20,6 +27,7 @@ from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
 
 from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demonstrations
+from sb3_mbil.common.files import atomic_write
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
@@ -106,11 +114,14 @@ class OfflineAlgorithm(BaseAlgorithm):
             self._check_spaces(self.observation_space, self.action_space)
         elif _init_setup_model:
             raise ValueError("env: expected a gymnasium env or env id (needed for the spaces), found None")
+        self.algorithm = type(self).__name__  # saved in the zip: load checks it
         self.expert_data = expert_data
         self.batch_size = batch_size
         self.weight_decay = weight_decay
         self._demonstrations: Demonstrations | None = None
         self._on_new_data()
+        if expert_data is not None and env is not None:
+            self.demonstrations()  # bad data is refused when it is given, not at the first learn
 
     @classmethod
     def _check_spaces(cls, observation_space: spaces.Space, action_space: spaces.Space) -> None:
@@ -138,16 +149,63 @@ class OfflineAlgorithm(BaseAlgorithm):
         # The optimiser is saved too: training continued after load is training continued in memory.
         return ["policy", "policy.optimizer"], []
 
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | os.PathLike | io.BufferedIOBase, exclude=None, include=None) -> None:
+        """SB3's ``save``, written whole or not at all: a failed or killed save leaves the old zip intact."""
+        if not isinstance(path, (str, os.PathLike)):
+            return super().save(path, exclude, include)
+        target = Path(path)
+        if target.suffix == "":
+            target = target.with_suffix(".zip")  # as SB3 names it
+        with atomic_write(target) as tmp:
+            super().save(tmp, exclude, include)
+
+    @classmethod
+    def load(cls, path, env: GymEnv | str | None = None, device: th.device | str = "auto", custom_objects=None,
+             print_system_info: bool = False, force_reset: bool = True, **kwargs):
+        """SB3's ``load``; ``env`` may be an env id (as in the constructor), the zip is checked to be one of ``cls``
+        first, and ``expert_data`` given here is checked at once."""
+        if isinstance(path, (str, os.PathLike)):
+            cls._check_saved_by(Path(path))
+        if isinstance(env, str):
+            env = gym.make(env)
+        model = super().load(path, env=env, device=device, custom_objects=custom_objects,
+                             print_system_info=print_system_info, force_reset=force_reset, **kwargs)
+        if model.expert_data is not None and model.env is not None:
+            model.demonstrations()
+        return model
+
+    @classmethod
+    def _check_saved_by(cls, path: Path) -> None:
+        """Refuse, naming the file and both algorithms, a zip that another algorithm (or library) saved."""
+        if not path.exists() and path.suffix == "":
+            path = path.with_suffix(".zip")
+        if not path.is_file():
+            return  # SB3 raises its FileNotFoundError
+        try:
+            with zipfile.ZipFile(path) as archive:
+                data = json.loads(archive.read("data"))
+        except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise ValueError(f"{path}: expected a model zip saved by {cls.__name__}.save, found an unreadable file "
+                             f"(truncated or not a model zip: {e})") from None
+        saved = data.get("algorithm") if isinstance(data, dict) else None
+        if saved != cls.__name__:
+            origin = f"sb3_mbil's {saved}" if saved else "another library (e.g. an SB3 PPO or DQN) or an older sb3_mbil"
+            hint = f": load it with sb3_mbil.{saved}.load" if saved else ""
+            raise ValueError(f"{path}: expected a model saved by {cls.__name__}, found one saved by {origin}{hint}")
+
     # ------------------------------------------------------------------ data
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
-        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats"]
+        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats", "_parameters"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
         """Give (or replace) the expert data, e.g. after ``load`` to continue learning."""
         self.expert_data = expert_data
         self._demonstrations = None
         self._on_new_data()
+        if expert_data is not None:
+            self.demonstrations()
 
     def _on_new_data(self) -> None:
         """Forget the tensors derived from the data (extend to forget an algorithm's own caches)."""
@@ -161,8 +219,21 @@ class OfflineAlgorithm(BaseAlgorithm):
                     "expert_data: expected demonstrations to learn from, found None "
                     "(pass expert_data= to the constructor, to load, or call set_expert_data)"
                 )
-            self._demonstrations = as_demonstrations(self.expert_data, self.observation_space, self.action_space)
+            demos = as_demonstrations(self.expert_data, self.observation_space, self.action_space)
+            recorded, env_id = demos.metadata.get("env_id"), self._env_id()
+            if recorded is not None and env_id is not None and recorded != env_id:
+                warnings.warn(f"expert_data: recorded on {recorded} (its metadata), used with {env_id}: the spaces "
+                              "match, the dynamics may not", UserWarning, stacklevel=2)
+            self._demonstrations = demos
         return self._demonstrations
+
+    def _env_id(self) -> str | None:
+        """The id of the env the model learns for, when it was made from a registered id."""
+        try:
+            spec = self.env.get_attr("spec")[0] if self.env is not None else None
+        except (AttributeError, IndexError):
+            return None
+        return getattr(spec, "id", None)
 
     def _to_tensor(self, array: np.ndarray, kind: str) -> th.Tensor:
         """Observations/continuous actions as flat float32, discrete actions as int64."""
@@ -265,11 +336,13 @@ class OfflineAlgorithm(BaseAlgorithm):
         callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
+        self._parameters: list[tuple[str, th.nn.Parameter]] | None = None
         while self.num_timesteps < total_timesteps and not self.training_complete():
             self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
             self._update_learning_rate(self._optimizers())
             self._train_step()
             self.num_timesteps += 1
+            self._check_parameters()
             self._n_updates += 1
             callback.update_locals(locals())
             if not callback.on_step():
@@ -281,9 +354,31 @@ class OfflineAlgorithm(BaseAlgorithm):
         return self
 
     def _record(self, key: str, value: th.Tensor) -> None:
-        """Accumulate a training statistic; its mean since the last dump is logged (no sync per step)."""
+        """Accumulate a training statistic (its mean since the last dump is logged); a non-finite one stops training."""
+        value = value.detach()
+        if not bool(th.isfinite(value).all()):
+            raise FloatingPointError(
+                f"{type(self).__name__}: {key} is {float(value)} at gradient step {self.num_timesteps + 1}: training stopped "
+                "(lower the learning rate, or check the scale of the expert data)")
         total, count = self._train_stats.get(key, (0.0, 0))
-        self._train_stats[key] = (total + value.detach(), count + 1)
+        self._train_stats[key] = (total + value, count + 1)
+
+    def _check_parameters(self) -> None:
+        """Stop at the first non-finite parameter of any saved module (a loss can stay finite while a step is not)."""
+        if self._parameters is None:
+            self._parameters = []
+            for name in self._get_torch_save_params()[0]:
+                obj = self
+                for part in name.split("."):
+                    obj = getattr(obj, part)
+                if isinstance(obj, th.nn.Module):
+                    self._parameters += [(f"{name}.{k}", p) for k, p in obj.named_parameters()]
+        norms = th._foreach_norm([p.detach() for _, p in self._parameters])
+        if not bool(th.isfinite(th.stack(norms)).all()):
+            bad = next(k for (k, _), n in zip(self._parameters, norms) if not th.isfinite(n))
+            raise FloatingPointError(
+                f"{type(self).__name__}: parameter {bad} is not finite after gradient step {self.num_timesteps}: training "
+                "stopped (lower the learning rate, or check the scale of the expert data)")
 
     def dump_logs(self) -> None:
         for key, (total, count) in getattr(self, "_train_stats", {}).items():

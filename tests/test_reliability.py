@@ -1,0 +1,172 @@
+"""Faults and bad inputs: every one a clear error naming what is wrong; no silent NaN, no lost model, no
+corrupted results file."""
+
+import os
+import signal
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+
+from sb3_mbil import ALGORITHMS, BC, MBIL, Demonstrations, Trajectory, load_demonstrations
+
+FAST = {"mbil": dict(flow_max_steps=30, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
+        "edm": dict(sgld_steps=1, sgld_buffer_size=50),
+        "dsfn": dict(warm_start_steps=5, dqn_steps=5, sf_steps=5, max_iterations=2)}
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return load_demonstrations("CartPole-v1").sample(1, seed=0)
+
+
+def make(name, data, **kwargs):
+    return ALGORITHMS[name]("MlpPolicy", "CartPole-v1", expert_data=data, seed=0, **{**FAST.get(name, {}), **kwargs})
+
+
+# ---------------------------------------------------------------------------------------------- non-finite
+@pytest.mark.parametrize("name", list(ALGORITHMS))
+def test_data_that_would_overflow_float32_is_refused_when_given(name, demo):
+    o, a = demo[0].observations.copy(), demo[0].actions
+    o[:50, 1] = 1e30
+    with pytest.raises(ValueError, match=r"observations: expected values of magnitude <= 1e\+15"):
+        make(name, [(o, a)])
+
+
+@pytest.mark.parametrize("name", list(ALGORITHMS))
+def test_a_non_finite_loss_or_parameter_stops_training_naming_it(name, demo):
+    model = make(name, demo).learn(3)
+    with th.no_grad():
+        next(model.policy.parameters()).fill_(float("nan"))
+    with pytest.raises(FloatingPointError, match=rf"{type(model).__name__}: .* (is nan|is not finite) .*gradient step 4"):
+        model.learn(5, reset_num_timesteps=False)
+
+
+def test_an_exploding_learning_rate_stops_mbil_with_its_term(demo):
+    with pytest.raises(FloatingPointError, match=r"MBIL: train/balance_loss is inf at gradient step \d+"):
+        make("mbil", demo, learning_rate=1e6).learn(300)
+
+
+# ---------------------------------------------------------------------------------------------- files
+@pytest.mark.parametrize("name", ["bc", "mbil"])
+def test_a_failed_save_keeps_the_old_model_and_leaves_no_temporary(name, demo, tmp_path, monkeypatch):
+    model = make(name, demo).learn(3)
+    model.save(tmp_path / "m.zip")
+    good = (tmp_path / "m.zip").read_bytes()
+    import stable_baselines3.common.base_class as base_class
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(base_class, "save_to_zip_file", boom)
+    with pytest.raises(OSError, match="disk full"):
+        model.save(tmp_path / "m.zip")
+    assert (tmp_path / "m.zip").read_bytes() == good
+    assert os.listdir(tmp_path) == ["m.zip"]
+
+
+def test_a_killed_save_leaves_the_old_model_and_its_temporary_is_cleared_by_the_next_save(demo, tmp_path):
+    BC("MlpPolicy", "CartPole-v1", expert_data=demo).save(tmp_path / "m.zip")
+    good = (tmp_path / "m.zip").read_bytes()
+    # a process killed while writing the temporary
+    code = ("import os, signal, stable_baselines3.common.base_class as b\n"
+            "from sb3_mbil import BC\n"
+            "def die(path, *a, **k):\n"
+            "    open(path, 'wb').write(b'half a zip'); os.kill(os.getpid(), signal.SIGKILL)\n"
+            "b.save_to_zip_file = die\n"
+            f"BC('MlpPolicy', 'CartPole-v1').save({str(tmp_path / 'm.zip')!r})\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=300)
+    assert out.returncode == -signal.SIGKILL
+    assert (tmp_path / "m.zip").read_bytes() == good  # the old model is intact
+    assert len(list(tmp_path.glob(".m.zip.*.tmp"))) == 1  # what the killed process left
+    BC.load(tmp_path / "m.zip").save(tmp_path / "m.zip")
+    assert os.listdir(tmp_path) == ["m.zip"]
+
+
+def test_a_killed_demonstrations_save_is_cleared_by_the_next_save(demo, tmp_path):
+    (tmp_path / ".d.npz.999999999.tmp").write_bytes(b"x" * 1000)  # a temporary of a process that is gone
+    (tmp_path / f".d.npz.{os.getpid()}.tmp.other").write_bytes(b"")  # not a temporary of ours: kept
+    demo.save(tmp_path / "d.npz")
+    assert sorted(os.listdir(tmp_path)) == sorted(["d.npz", f".d.npz.{os.getpid()}.tmp.other"])
+
+
+# ---------------------------------------------------------------------------------------------- loading
+def test_load_names_the_file_and_both_algorithms(demo, tmp_path):
+    make("mbil", demo).learn(2).save(tmp_path / "mbil.zip")
+    make("bc", demo).learn(2).save(tmp_path / "bc.zip")
+    with pytest.raises(ValueError, match=r"mbil.zip: expected a model saved by BC, found one saved by sb3_mbil's MBIL"):
+        BC.load(tmp_path / "mbil.zip")
+    with pytest.raises(ValueError, match=r"bc.zip: expected a model saved by MBIL, found one saved by sb3_mbil's BC"):
+        MBIL.load(tmp_path / "bc")
+    from stable_baselines3 import DQN, PPO
+
+    for sb3 in (PPO, DQN):
+        sb3("MlpPolicy", "CartPole-v1").save(tmp_path / "sb3.zip")
+        with pytest.raises(ValueError, match="sb3.zip: expected a model saved by BC, found one saved by another library"):
+            BC.load(tmp_path / "sb3.zip")
+    (tmp_path / "cut.zip").write_bytes((tmp_path / "bc.zip").read_bytes()[:-300])
+    with pytest.raises(ValueError, match="cut.zip: expected a model zip saved by BC.save, found an unreadable file"):
+        BC.load(tmp_path / "cut.zip")
+    loaded = MBIL.load(tmp_path / "mbil.zip", env="CartPole-v1")  # an env id, as in the constructor
+    assert loaded.env is not None and loaded.observation_space == gym.make("CartPole-v1").observation_space
+
+
+def test_expert_data_is_checked_when_given(demo, tmp_path):
+    bad = [(np.full((6, 4), np.nan), np.zeros(5, dtype=int))]
+    with pytest.raises(ValueError, match="observations: expected finite"):
+        BC("MlpPolicy", "CartPole-v1", expert_data=bad)
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=demo)
+    with pytest.raises(ValueError, match="observations: expected finite"):
+        model.set_expert_data(bad)
+    model.save(tmp_path / "m.zip")
+    with pytest.raises(ValueError, match="observations: expected finite"):
+        BC.load(tmp_path / "m.zip", env="CartPole-v1", expert_data=bad)
+
+
+# ---------------------------------------------------------------------------------------------- data files
+def _write(tmp_path, **overrides):
+    d = Demonstrations([Trajectory(np.zeros((4, 4), np.float32), np.zeros(3, np.int64))], {"env_id": "CartPole-v1"})
+    path = d.save(tmp_path / "d.npz")
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files}
+    arrays.update(overrides)
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (dict(metadata_json=np.array("{not json")), "metadata_json: expected a JSON object, found unreadable JSON"),
+    (dict(metadata_json=np.array("[1, 2]")), "metadata_json: expected a JSON object, found list"),
+    (dict(n_observations=np.array(4)), "n_observations: expected an array with one entry per trajectory, found a 0-d"),
+    (dict(n_actions=np.array([3.0])), "n_actions: expected a 1-d array of non-negative integers"),
+    (dict(n_actions=np.array([-1])), "n_actions: expected a 1-d array of non-negative integers"),
+    (dict(episode_returns=np.array([1.0, 2.0])), "episode_returns: expected 1 entries"),
+    (dict(terminated=np.array([True, False])), "terminated: expected 1 entries"),
+])
+def test_every_field_of_a_data_file_is_validated_with_its_path(tmp_path, overrides, message):
+    path = _write(tmp_path, **overrides)
+    with pytest.raises(ValueError, match=message) as e:
+        load_demonstrations(path)
+    assert str(path) in str(e.value)
+
+
+def test_a_directory_is_not_reported_as_a_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="expected a .npz file, found a directory"):
+        BC("MlpPolicy", "CartPole-v1", expert_data=tmp_path)
+
+
+def test_observations_outside_the_observation_space_are_refused():
+    obs = np.zeros((6, 4), np.float32)
+    obs[2, 0] = 9.0  # CartPole's cart position lies in [-4.8, 4.8]
+    with pytest.raises(ValueError, match=r"observations: expected values within the observation space bounds .* found 9.0"):
+        BC("MlpPolicy", "CartPole-v1", expert_data=[(obs, np.zeros(5, np.int64))])
+
+
+def test_data_recorded_on_another_env_is_warned_about(tmp_path):
+    d = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    d = Demonstrations(list(d), {**d.metadata, "env_id": "CartPole-v0"})
+    with pytest.warns(UserWarning, match="recorded on CartPole-v0 .* used with CartPole-v1"):
+        BC("MlpPolicy", "CartPole-v1", expert_data=d)
