@@ -7,7 +7,6 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 """
 
 import argparse
-import csv
 
 
 def main(argv=None):
@@ -19,12 +18,14 @@ def main(argv=None):
     p.add_argument("--markdown", default=None, help="also write the tables here")
     a = p.parse_args(argv)
     from sb3_mbil.benchmark.curves import curve_table, draw_table, paired_table, pool_experts
-    from sb3_mbil.benchmark.results import write_text
+    from sb3_mbil.benchmark.results import read_result_rows, write_text
 
     rows = []
     for path in a.csv:
-        with open(path, newline="") as f:
-            rows += list(csv.DictReader(f))
+        try:
+            rows += read_result_rows(path)
+        except (ValueError, FileNotFoundError) as e:
+            p.error(f"csv: {e}")
     if not rows:
         p.error(f"csv: expected result rows, found none in {a.csv}")
     try:

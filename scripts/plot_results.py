@@ -14,7 +14,10 @@ def main(argv=None):
     p.add_argument("--out", default="results/classic_control.png")
     p.add_argument("--markdown", default=None, help="also write the tables to this markdown file")
     a = p.parse_args(argv)
-    rows = read_rows(a.csv)
+    try:
+        rows = read_rows(a.csv)
+    except (ValueError, FileNotFoundError) as e:
+        p.error(f"--csv: {e}")
     plot(rows, a.out)
     commits = sorted({r.get("commit", "") for r in rows})
     lines = [f"Results of {len(rows)} runs from `{a.csv}` (commits: {', '.join(commits)}); mean +- std over seeds "

@@ -12,7 +12,6 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 """
 
 import argparse
-import csv
 
 from sb3_mbil.benchmark.cli import parse_seeds
 
@@ -69,8 +68,9 @@ def main(argv=None):
     n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories, pool=a.pool,
                    use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
     print(f"{n} runs done now; results in {a.csv}")
-    with open(a.csv, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r["env"] in a.envs and r["algo"] in variants]
+    from sb3_mbil.benchmark.results import read_result_rows
+
+    rows = [r for r in read_result_rows(a.csv) if r["env"] in a.envs and r["algo"] in variants]
     if a.pool is not None:  # only this pool's runs, against this pool's expert return
         rows = [r for r in rows if f"('expert_pool', {a.pool!r})" in r["settings"]]
     expert = {e: float(load_demonstrations(a.pool or e).episode_returns.mean()) for e in a.envs}

@@ -170,3 +170,50 @@ def test_data_recorded_on_another_env_is_warned_about(tmp_path):
     d = Demonstrations(list(d), {**d.metadata, "env_id": "CartPole-v0"})
     with pytest.warns(UserWarning, match="recorded on CartPole-v0 .* used with CartPole-v1"):
         BC("MlpPolicy", "CartPole-v1", expert_data=d)
+
+
+# ---------------------------------------------------------------------------------------------- results CSV
+def _grid_csv(tmp_path):
+    from sb3_mbil.benchmark.grid import RESULT_COLUMNS as COLUMNS
+
+    path = tmp_path / "grid.csv"
+    from sb3_mbil.benchmark.results import append_rows
+
+    append_rows(path, [{c: f"{c}{i}" for c in COLUMNS} | {"algo": "bc", "env": "CartPole-v1", "n_trajectories": "1",
+                                                          "seed": str(i)} for i in range(3)], COLUMNS)
+    return path, COLUMNS
+
+
+@pytest.mark.parametrize("cut", [40, 5])
+def test_an_interrupted_last_line_is_dropped_said_and_redone_on_a_fresh_line(tmp_path, cut, caplog):
+    from sb3_mbil.benchmark.grid import KEY_COLUMNS as KEY
+    from sb3_mbil.benchmark.results import append_rows, finished_keys, read_result_rows
+
+    path, columns = _grid_csv(tmp_path)
+    whole = path.read_bytes()
+    path.write_bytes(whole[:-cut])  # the last row cut mid-line (truncate -s -40)
+    with pytest.raises(ValueError, match=r"grid.csv:4: expected complete lines, found an unterminated last line"):
+        read_result_rows(path)  # reports refuse it
+    keys = finished_keys(path, KEY)  # resume drops it, saying so, and redoes that run
+    assert ("bc", "CartPole-v1", "1", "2") not in keys and len(keys) == 2
+    assert "dropped an incomplete last line" in caplog.text
+    append_rows(path, [{c: "x" for c in columns} | {"algo": "bc", "env": "CartPole-v1", "n_trajectories": "1", "seed": "2"}],
+                columns)
+    rows = read_result_rows(path)
+    assert len(rows) == 3 and rows[-1]["seed"] == "2" and all(len(r) == len(columns) for r in rows)
+
+
+def test_a_malformed_middle_line_is_refused_with_path_and_line(tmp_path):
+    from sb3_mbil.benchmark.grid import KEY_COLUMNS as KEY
+    from sb3_mbil.benchmark.results import finished_keys, read_result_rows
+
+    path, _ = _grid_csv(tmp_path)
+    lines = path.read_text().splitlines(keepends=True)
+    lines[2] = lines[2].rstrip("\r\n") + ",glued,on\r\n"
+    path.write_text("".join(lines))
+    for reader in (read_result_rows, lambda p: finished_keys(p, KEY)):
+        with pytest.raises(ValueError, match=r"grid.csv:3: expected \d+ fields \(the header's\), found \d+"):
+            reader(path)
+    out = subprocess.run([sys.executable, "scripts/plot_results.py", "--csv", str(path), "--out", str(tmp_path / "p.png")],
+                         capture_output=True, text=True, cwd=os.path.dirname(os.path.dirname(__file__)), timeout=300)
+    assert out.returncode == 2 and "grid.csv:3: expected" in out.stderr and "Traceback" not in out.stderr

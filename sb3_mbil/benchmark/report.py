@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import os
 from collections import defaultdict
 
@@ -24,8 +23,10 @@ PUBLISHED_BC = {
 
 
 def read_rows(path: str) -> list[dict]:
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
+    """The grid's rows, typed; a malformed file is refused with its path and line."""
+    from sb3_mbil.benchmark.results import read_result_rows
+
+    rows = read_result_rows(path)
     for r in rows:
         r["n_trajectories"], r["seed"] = int(r["n_trajectories"]), int(r["seed"])
         r["mean_return"] = float(r["mean_return"])

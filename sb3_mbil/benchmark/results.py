@@ -4,17 +4,75 @@ from __future__ import annotations
 
 import csv
 import fcntl
+import io
+import logging
 import os
 from pathlib import Path
 
+logger = logging.getLogger("sb3_mbil.results")
+
+
+def read_result_rows(path: str | os.PathLike) -> list[dict]:
+    """Every row of a results CSV, refusing a malformed one: a ``ValueError`` with the path and line number
+    (a row whose number of fields differs from the header's, or a last line without its newline)."""
+    path = Path(path)
+    text = path.read_text()
+    if text and not text.endswith("\n"):
+        n = text.count("\n") + 1
+        raise ValueError(f"{path}:{n}: expected complete lines, found an unterminated last line (an interrupted write; "
+                         "rerunning the grid drops it and redoes that run)")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    header = next(reader, None)
+    if header is None:
+        return []
+    rows = []
+    for row in reader:
+        if len(row) != len(header):
+            raise ValueError(f"{path}:{reader.line_num}: expected {len(header)} fields (the header's), found {len(row)}")
+        rows.append(dict(zip(header, row)))
+    return rows
+
+
+def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
+    """Cut an interrupted last line (no newline, or fewer or more fields than the header) off the file, and say so.
+
+    Only the last line can be cut by an interrupted append; the run it belonged to is then redone.
+    Returns the dropped text, or None.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return None
+    with open(path, "r+", newline="") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            text = f.read()
+            complete = text.endswith("\n")
+            lines = text.split("\n")[:-1] if complete else text.split("\n")
+            if len(lines) <= 1:
+                return None  # empty, or a header only: nothing to drop
+            header, last = next(csv.reader([lines[0]])), lines[-1]
+            if complete and len(next(csv.reader([last]), [])) == len(header):
+                return None
+            keep = "\n".join(lines[:-1]) + "\n"
+            f.seek(0)
+            f.truncate()
+            f.write(keep)
+            f.flush()
+            os.fsync(f.fileno())
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+    logger.warning("%s: dropped an incomplete last line (an interrupted write), its run is redone: %r", path, last[:80])
+    return last
+
 
 def finished_keys(path: str | os.PathLike, key_columns: tuple[str, ...]) -> set[tuple[str, ...]]:
-    """Keys of the rows already in the CSV (so an interrupted grid resumes where it stopped)."""
+    """Keys of the rows already in the CSV (so an interrupted grid resumes where it stopped); an interrupted
+    last line is dropped first, so its run is redone."""
     path = Path(path)
     if not path.is_file():
         return set()
-    with open(path, newline="") as f:
-        return {tuple(str(row[c]) for c in key_columns) for row in csv.DictReader(f) if all(row.get(c) for c in key_columns)}
+    drop_incomplete_last_line(path)
+    return {tuple(str(row[c]) for c in key_columns) for row in read_result_rows(path) if all(row.get(c) for c in key_columns)}
 
 
 def append_row(path: str | os.PathLike, row: dict, columns: list[str]) -> None:
@@ -27,11 +85,11 @@ def append_row(path: str | os.PathLike, row: dict, columns: list[str]) -> None:
 
 def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -> None:
     """Append complete lines in one write under an exclusive lock, so a run's rows land together
-    (a run interrupted while saving leaves none of them, and is redone on resume)."""
-    import io
-
+    (a run interrupted while saving leaves none of them, and is redone on resume). An interrupted last line
+    already in the file is dropped first, so the new rows start on a fresh line."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    drop_incomplete_last_line(path)
     with open(path, "a+", newline="") as f:
         fcntl.flock(f, fcntl.LOCK_EX)
         try:
