@@ -169,7 +169,11 @@ def _patch_experiment_manager(cls) -> None:
     @functools.wraps(init)
     def __init__(self, *args, **kwargs):
         init(self, *args, **kwargs)
-        config = inspect.signature(init).bind(self, *args, **kwargs).arguments.get("config")
+        bound = inspect.signature(init).bind(self, *args, **kwargs).arguments
+        n = bound.get("n_timesteps", -1)
+        if self.algo in ours and n != -1 and n < 1:  # -1 is rl_zoo3's "not given"
+            _exit(f"-n/--n-timesteps: expected a number of gradient steps >= 1, found {n}")
+        config = bound.get("config")
         if self.algo in ours and config is None:
             self.config = str(hyperparams_file(self.algo))
 
@@ -192,7 +196,10 @@ def _patch_experiment_manager(cls) -> None:
         if self.algo not in ours:
             return preprocess(self, hyperparams)
         data_spec = {k: hyperparams.pop(k) for k in DATA_KEYS if k in hyperparams}
+        _check_keys(self.algo, ours[self.algo], hyperparams)
         result = preprocess(self, hyperparams)
+        if isinstance(self.n_timesteps, bool) or not isinstance(self.n_timesteps, int) or self.n_timesteps < 1:
+            _exit(f"n_timesteps: expected a number of gradient steps >= 1 (-n or n_timesteps), found {self.n_timesteps!r}")
         if self.eval_freq == ZOO_DEFAULT_EVAL_FREQ and self.n_timesteps <= ZOO_DEFAULT_EVAL_FREQ:
             # the zoo's default would never evaluate our (short) runs: evaluate 10 times instead
             self.eval_freq = max(self.n_timesteps // 10, 1)
@@ -200,9 +207,39 @@ def _patch_experiment_manager(cls) -> None:
             result[0]["expert_data"] = _expert_data(self.env_name.gym_id, data_spec, self.seed)
         return result
 
+    def _one_line(method):
+        """Our algorithms' ValueErrors (bad settings, bad data) end the command with one ``sb3_mbil:`` line."""
+
+        @functools.wraps(method)
+        def wrapped(self, *args, **kwargs):
+            if self.algo not in ours:
+                return method(self, *args, **kwargs)
+            try:
+                return method(self, *args, **kwargs)
+            except ValueError as e:
+                _exit(str(e))
+
+        return wrapped
+
     cls.__init__ = __init__
     cls.read_hyperparameters = read_hyperparameters
     cls._preprocess_hyperparams = _preprocess_hyperparams
+    cls.setup_experiment = _one_line(cls.setup_experiment)
+    cls.learn = _one_line(cls.learn)
+
+
+# keys rl_zoo3 itself reads from a hyperparameter entry (not constructor arguments)
+ZOO_KEYS = {"n_timesteps", "policy", "n_envs", "normalize", "env_wrapper", "vec_env_wrapper", "callback", "frame_stack",
+            "normalize_kwargs", "policy_kwargs"}
+
+
+def _check_keys(algo: str, cls: type, hyperparams: dict[str, Any]) -> None:
+    """An unknown key (e.g. another algorithm's ``n_steps``) is one ``sb3_mbil:`` line naming it."""
+    known = set(inspect.signature(cls.__init__).parameters) - {"self", "env", "_init_setup_model"}
+    unknown = sorted(k for k in hyperparams if k not in known and k not in ZOO_KEYS)
+    if unknown:
+        _exit(f"hyperparameters {', '.join(unknown)}: expected settings of {cls.__name__} "
+              f"({', '.join(sorted(known - {'policy', 'expert_data'}))}) or rl_zoo3's own keys, found unknown keys")
 
 
 def _expert_data(env_id: str, spec: dict[str, Any], seed: int | None):
@@ -210,9 +247,14 @@ def _expert_data(env_id: str, spec: dict[str, Any], seed: int | None):
     import gymnasium as gym
 
     from sb3_mbil.common.demonstrations import load_demonstrations
+    from sb3_mbil.common.validation import check_int
 
     pool = spec.get("expert_pool", env_id)
     n = spec.get("n_expert_trajectories", 1)
+    try:
+        n = check_int("n_expert_trajectories", n, low=1)
+    except ValueError as e:
+        _exit(str(e))
     try:
         demos = load_demonstrations(pool)
     except (ValueError, FileNotFoundError) as e:
@@ -223,9 +265,10 @@ def _expert_data(env_id: str, spec: dict[str, Any], seed: int | None):
     env = gym.make(env_id)
     try:
         demos.check_spaces(env.observation_space, env.action_space)
-        demos = demos.sample(int(n), seed=seed)
     except ValueError as e:
         _exit(f"expert_pool {pool!r} does not fit {env_id}: {e}")
     finally:
         env.close()
-    return demos
+    if n > len(demos):
+        _exit(f"n_expert_trajectories: expected at most the {len(demos)} trajectories of expert_pool {pool!r}, found {n}")
+    return demos.sample(n, seed=seed)

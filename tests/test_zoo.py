@@ -131,10 +131,21 @@ def test_optimize_two_workers_share_one_study(tmp_path):
         (["--env", "CartPole-v1", "--hyperparams", "expert_pool:'Acrobot-v1'"],
          "sb3_mbil: expert_pool: expected demonstrations of CartPole-v1, found a pool of Acrobot-v1"),
         (["--env", "CartPole-v1", "--hyperparams", "expert_pool:'NoSuchPool'"], "shipped pool name"),
+        (["--env", "CartPole-v1", "--hyperparams", "n_expert_trajectories:0"],
+         "sb3_mbil: n_expert_trajectories: expected an integer >= 1, found 0"),
+        (["--env", "CartPole-v1", "--hyperparams", "n_expert_trajectories:'abc'"],
+         "sb3_mbil: n_expert_trajectories: expected an integer >= 1, found 'abc'"),
+        (["--env", "CartPole-v1", "--hyperparams", "n_expert_trajectories:5000"],
+         "sb3_mbil: n_expert_trajectories: expected at most the 1000 trajectories"),
+        (["--env", "CartPole-v1", "--hyperparams", "n_steps:128"], "sb3_mbil: hyperparameters n_steps: expected settings of MBIL"),
+        (["--env", "CartPole-v1", "--hyperparams", "alpha:-1.0"], "sb3_mbil: alpha: expected a finite number >= 0, found -1.0"),
+        (["--env", "CartPole-v1", "--hyperparams", "flow_hidden:64"], "sb3_mbil: flow_hidden: expected a list of 1 or more"),
+        (["--env", "CartPole-v1", "-n", "-5"], "sb3_mbil: -n/--n-timesteps: expected a number of gradient steps >= 1, found -5"),
     ],
 )
 def test_bad_input_stops_with_a_clear_message(tmp_path, extra, message):
-    out = run(["-m", "rl_zoo3.train", "--algo", "mbil", "-n", "5", "-f", "logs", *extra], tmp_path)
+    args = extra if "-n" in extra else ["-n", "5", *extra]
+    out = run(["-m", "rl_zoo3.train", "--algo", "mbil", "-f", "logs", *args], tmp_path)
     assert out.returncode != 0
     assert message in out.stderr
     assert "Traceback" not in out.stderr
