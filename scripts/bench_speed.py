@@ -10,6 +10,7 @@ import csv
 import io
 
 from sb3_mbil import ALGORITHMS, load_demonstrations
+from sb3_mbil.benchmark.cli import positive_int, seed
 from sb3_mbil.benchmark.grid import git_commit
 from sb3_mbil.benchmark.results import write_text
 from sb3_mbil.speed import measure_speed
@@ -19,11 +20,11 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--algo", default="mbil", choices=sorted(ALGORITHMS), help="algorithm of sb3_mbil.ALGORITHMS")
     p.add_argument("--env", default="LunarLander-v3")
-    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 3, 7, 10, 15])
-    p.add_argument("--budget", type=int, default=10_000, help="policy updates of a full run (for the total ratio)")
-    p.add_argument("--steps", type=int, default=2000, help="policy updates per timing block")
-    p.add_argument("--repeats", type=int, default=3, help="interleaved timing blocks (medians reported)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--n-trajectories", type=positive_int, nargs="+", default=[1, 3, 7, 10, 15])
+    p.add_argument("--budget", type=positive_int, default=10_000, help="policy updates of a full run (for the total ratio)")
+    p.add_argument("--steps", type=positive_int, default=2000, help="policy updates per timing block")
+    p.add_argument("--repeats", type=positive_int, default=3, help="interleaved timing blocks (medians reported)")
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--out", default=None, help="CSV to write (whole, atomically)")
     a = p.parse_args(argv)
     rows, commit = [], git_commit()

@@ -12,7 +12,7 @@ import json
 import logging
 
 from sb3_mbil import ALGORITHMS
-from sb3_mbil.benchmark.cli import parse_seeds
+from sb3_mbil.benchmark.cli import parse_seeds, positive_int
 
 
 def main(argv=None):
@@ -20,13 +20,13 @@ def main(argv=None):
     p.add_argument("--algos", nargs="+", default=["mbil", "bc"], choices=sorted(ALGORITHMS),
                    help="algorithms of sb3_mbil.ALGORITHMS")
     p.add_argument("--envs", nargs="+", default=["CartPole-v1", "Acrobot-v1", "LunarLander-v3"])
-    p.add_argument("--n-trajectories", nargs="+", type=int, default=[1, 3, 7, 10, 15])
+    p.add_argument("--n-trajectories", nargs="+", type=positive_int, default=[1, 3, 7, 10, 15])
     p.add_argument("--seeds", type=parse_seeds, default=list(range(10)), help="e.g. 0-9 or 0,3,5")
-    p.add_argument("--episodes", type=int, default=300)
+    p.add_argument("--episodes", type=positive_int, default=300)
     p.add_argument("--csv", default="results/classic_control.csv")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
-    p.add_argument("--num-cpus", type=int, default=None, help="local Ray: CPUs to use")
+    p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
     p.add_argument("--local", action="store_true", help="run without Ray, one run after the other")
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")

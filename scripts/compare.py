@@ -10,16 +10,17 @@ import argparse
 import json
 
 from sb3_mbil import ALGORITHMS
+from sb3_mbil.benchmark.cli import positive_int, seed
 from sb3_mbil.experiments import compare
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="CartPole-v1")
-    p.add_argument("--n-trajectories", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--eval-episodes", type=int, default=300)
-    p.add_argument("--steps", type=int, default=None, help="override the gradient steps of the settings")
+    p.add_argument("--n-trajectories", type=positive_int, default=1)
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--eval-episodes", type=positive_int, default=300)
+    p.add_argument("--steps", type=positive_int, default=None, help="override the gradient steps of the settings")
     p.add_argument("--algos", nargs="+", default=["mbil", "bc"], choices=sorted(ALGORITHMS),
                    help="algorithms of sb3_mbil.ALGORITHMS")
     p.add_argument("--json", action="store_true", help="print the result as JSON")

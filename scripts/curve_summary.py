@@ -8,11 +8,13 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 
 import argparse
 
+from sb3_mbil.benchmark.cli import positive_int
+
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("csv", nargs="+")
-    p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
+    p.add_argument("--last", type=positive_int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
     p.add_argument("--paired-against", default=None, help="reference variant of the paired differences")
     p.add_argument("--draws", action="store_true", help="also the trajectories each seed drew (pool indices, mean return, steps)")
     p.add_argument("--markdown", default=None, help="also write the tables here")

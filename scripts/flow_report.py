@@ -15,15 +15,17 @@ import json
 
 import torch
 
+from sb3_mbil.benchmark.cli import positive_int, seed
+
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", required=True)
-    p.add_argument("--n-trajectories", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--updates", type=int, nargs="*", default=[], help="report after these cumulative gradient updates")
+    p.add_argument("--n-trajectories", type=positive_int, default=1)
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--updates", type=positive_int, nargs="*", default=[], help="report after these cumulative gradient updates")
     p.add_argument("--set", default="{}", help="JSON settings overriding zoo_hyperparams/mbil.yml")
-    p.add_argument("--eval-episodes", type=int, default=10, help="episodes scored at each --updates point")
+    p.add_argument("--eval-episodes", type=positive_int, default=10, help="episodes scored at each --updates point")
     a = p.parse_args(argv)
     try:
         overrides = json.loads(a.set)

@@ -14,17 +14,19 @@ import sys
 
 import torch
 
+from sb3_mbil.benchmark.cli import finite_float, positive_int, seed
+
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", required=True, help="gymnasium env id")
-    parser.add_argument("--n-trajectories", type=int, required=True)
+    parser.add_argument("--n-trajectories", type=positive_int, required=True)
     parser.add_argument("--source", default="hub", help="hub | zoo | PATH_TO_MODEL.zip")
-    parser.add_argument("--seed", type=int, default=0, help="episode i is reset with seed + i; zoo training seed")
+    parser.add_argument("--seed", type=seed, default=0, help="episode i is reset with seed + i; zoo training seed")
     parser.add_argument("--out", required=True, help="output .npz (written atomically)")
     parser.add_argument("--algo", default=None, help="RL Zoo algorithm of the expert (default: the paper's for the env)")
-    parser.add_argument("--min-return", type=float, default=None, help="acceptance threshold (default: per env)")
-    parser.add_argument("--eval-episodes", type=int, default=100, help="episodes of the acceptance test")
+    parser.add_argument("--min-return", type=finite_float, default=None, help="acceptance threshold (default: per env)")
+    parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes of the acceptance test")
     parser.add_argument("--sampled-actions", action="store_true",
                         help="record actions sampled from the expert's policy instead of its deterministic ones")
     args = parser.parse_args(argv)

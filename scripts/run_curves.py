@@ -13,7 +13,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 
 import argparse
 
-from sb3_mbil.benchmark.cli import parse_seeds
+from sb3_mbil.benchmark.cli import parse_seeds, positive_int
 
 
 def main(argv=None):
@@ -23,19 +23,19 @@ def main(argv=None):
                    help='JSON {"name": ["algo", {settings}]} instead of the figure\'s variants (tuning runs)')
     p.add_argument("--envs", nargs="+", required=True)
     p.add_argument("--seeds", type=parse_seeds, default=list(range(5)))
-    p.add_argument("--updates", type=int, required=True, help="gradient updates per run")
-    p.add_argument("--eval-every", type=int, default=500)
-    p.add_argument("--episodes", type=int, default=10)
-    p.add_argument("--n-trajectories", type=int, default=1)
+    p.add_argument("--updates", type=positive_int, required=True, help="gradient updates per run")
+    p.add_argument("--eval-every", type=positive_int, default=500)
+    p.add_argument("--episodes", type=positive_int, default=10)
+    p.add_argument("--n-trajectories", type=positive_int, default=1)
     p.add_argument("--pool", default=None,
                    help="draw the trajectories from this pool (.npz path or shipped name) instead of the env's shipped pool (a CSV of its own: runs resume by variant, env and seed); "
                         "one env only; recorded in the settings column")
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
-    p.add_argument("--last", type=int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
+    p.add_argument("--last", type=positive_int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
     p.add_argument("--markdown", default=None, help="also write the summary table (final return, drop from the best) here")
     p.add_argument("--address", default=None, help="Ray cluster address (default: local Ray)")
-    p.add_argument("--num-cpus", type=int, default=None)
+    p.add_argument("--num-cpus", type=positive_int, default=None)
     p.add_argument("--local", action="store_true", help="without Ray")
     a = p.parse_args(argv)
     from sb3_mbil import load_demonstrations

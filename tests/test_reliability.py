@@ -217,3 +217,22 @@ def test_a_malformed_middle_line_is_refused_with_path_and_line(tmp_path):
     out = subprocess.run([sys.executable, "scripts/plot_results.py", "--csv", str(path), "--out", str(tmp_path / "p.png")],
                          capture_output=True, text=True, cwd=os.path.dirname(os.path.dirname(__file__)), timeout=300)
     assert out.returncode == 2 and "grid.csv:3: expected" in out.stderr and "Traceback" not in out.stderr
+
+
+# ---------------------------------------------------------------------------------------------- script options
+@pytest.mark.parametrize("args, message", [
+    (["scripts/benchmark.py", "--episodes", "-3"], "argument --episodes: expected an integer >= 1, found -3"),
+    (["scripts/benchmark.py", "--seeds", "5-1"], "argument --seeds: expected increasing seed ranges"),
+    (["scripts/benchmark.py", "--algos", "nope"], "argument --algos: invalid choice: 'nope'"),
+    (["scripts/run_curves.py", "--envs", "Hopper-v4", "--updates", "0", "--csv", "x.csv"], "argument --updates: expected an integer >= 1"),
+    (["scripts/compare.py", "--seed", "abc"], "argument --seed: expected an integer seed >= 0, found 'abc'"),
+    (["scripts/bench_speed.py", "--steps", "1.5"], "argument --steps: expected an integer >= 1, found '1.5'"),
+    (["scripts/generate_expert_data.py", "--env", "CartPole-v1", "--n-trajectories", "2", "--min-return", "nan"],
+     "argument --min-return: expected a finite number, found 'nan'"),
+])
+def test_script_options_are_checked_with_one_line_naming_them(args, message, tmp_path):
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, os.path.join(repo, args[0]), *args[1:]], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
+    assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr, out.stderr[-2000:]
+    assert not (tmp_path / "x.csv").exists()
