@@ -236,3 +236,12 @@ def test_script_options_are_checked_with_one_line_naming_them(args, message, tmp
                          cwd=tmp_path, timeout=300)
     assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr, out.stderr[-2000:]
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_every_tried_fault_gives_a_clean_error():
+    """scripts/robustness_report.py's cases: each a clean error naming its field, none unclear or silent."""
+    from sb3_mbil.robustness import run_cases, table
+
+    cases = run_cases()
+    assert len(cases) > 200
+    assert all(c.outcome == "clean" for c in cases), table(cases)

@@ -1,0 +1,28 @@
+"""Bad inputs and faults against the package, classified as clean errors, unclear ones or silent acceptances.
+
+    python scripts/robustness_report.py [--markdown results/robustness.md]
+"""
+
+import argparse
+
+from sb3_mbil.benchmark.results import write_text
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--markdown", default=None, help="also write the table here")
+    a = p.parse_args(argv)
+    import torch as th
+
+    from sb3_mbil.benchmark.grid import git_commit
+    from sb3_mbil.robustness import run_cases, table
+
+    th.set_num_threads(1)
+    text = f"Robustness at commit {git_commit()} (`python scripts/robustness_report.py`):\n\n" + table(run_cases())
+    print(text)
+    if a.markdown:
+        write_text(a.markdown, text + "\n")
+
+
+if __name__ == "__main__":
+    main()
