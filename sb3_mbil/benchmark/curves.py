@@ -9,6 +9,7 @@ runs resumes by skipping finished (variant, env, seed).
 from __future__ import annotations
 
 import itertools
+import logging
 from dataclasses import dataclass
 from typing import Any
 
@@ -214,7 +215,12 @@ def pool_experts(rows: list[dict]) -> dict[str, float]:
     for env, names in sorted(pools.items()):
         if len(names) > 1:
             raise ValueError(f"expert_pool: expected one pool per env, found {sorted(names)} for {env}")
-        expert[env] = float(load_demonstrations(names.pop()).episode_returns.mean())
+        name = names.pop()
+        try:
+            expert[env] = float(load_demonstrations(name).episode_returns.mean())
+        except FileNotFoundError:
+            logging.getLogger("sb3_mbil.curves").warning("%s: the pool %s is not on this machine: no expert fraction",
+                                                         env, name)
     return expert
 
 
