@@ -3,6 +3,7 @@
 from sb3_mbil.avril import AVRIL
 from sb3_mbil.bc import BC
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory, as_demonstrations, load_demonstrations
+from sb3_mbil.common.heldout import ValidationCallback, split_blocks
 from sb3_mbil.dsfn import DSFN
 from sb3_mbil.edm import EDM
 from sb3_mbil.mbil import MBIL
@@ -22,7 +23,9 @@ __all__ = [
     "RCAL",
     "Demonstrations",
     "Trajectory",
+    "ValidationCallback",
     "__version__",
     "as_demonstrations",
     "load_demonstrations",
+    "split_blocks",
 ]

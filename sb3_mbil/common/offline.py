@@ -28,6 +28,7 @@ from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedul
 
 from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demonstrations
 from sb3_mbil.common.files import atomic_write
+from sb3_mbil.common.losses import bc_loss
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
@@ -148,6 +149,26 @@ class OfflineAlgorithm(BaseAlgorithm):
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         # The optimiser is saved too: training continued after load is training continued in memory.
         return ["policy", "policy.optimizer"], []
+
+    def torch_modules(self) -> dict[str, th.nn.Module]:
+        """Every torch module the zip holds (``_get_torch_save_params``), by name."""
+        out = {}
+        for name in self._get_torch_save_params()[0]:
+            obj = self
+            for part in name.split("."):
+                obj = getattr(obj, part)
+            if isinstance(obj, th.nn.Module):
+                out[name] = obj
+        return out
+
+    @th.no_grad()
+    def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
+        """Losses on (held-out) expert data: ``bc_loss``, -E log pi(a|s) for Discrete actions and the mean's
+        squared error for Box actions (see :class:`~sb3_mbil.common.heldout.ValidationCallback`)."""
+        pairs = as_demonstrations(expert_data, self.observation_space, self.action_space).pairs()
+        obs, act = self._to_tensor(pairs["observations"], "obs"), self._to_tensor(pairs["actions"], "act")
+        kind = "nll" if isinstance(self.action_space, spaces.Discrete) else "mse"
+        return {"bc_loss": float(bc_loss(self.policy, self.policy.heads(obs), act, kind))}
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | os.PathLike | io.BufferedIOBase, exclude=None, include=None) -> None:
@@ -329,11 +350,12 @@ class OfflineAlgorithm(BaseAlgorithm):
             int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
         )
         self.demonstrations()  # check the data before anything else
+        # callbacks start before anything is fitted: a ValidationCallback may hold out part of the data here
+        callback.on_training_start(locals(), globals())
         if getattr(self.policy, "normalize_observations", False) and not bool(self.policy.obs_stats_set):
             # set once (kept by save/load and by set_expert_data, so continued training sees the same inputs)
             self.policy.set_observation_stats(self.expert_pairs().observations)
         self._prepare_training()
-        callback.on_training_start(locals(), globals())
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
         self._parameters: list[tuple[str, th.nn.Parameter]] | None = None
@@ -366,13 +388,8 @@ class OfflineAlgorithm(BaseAlgorithm):
     def _check_parameters(self) -> None:
         """Stop at the first non-finite parameter of any saved module (a loss can stay finite while a step is not)."""
         if self._parameters is None:
-            self._parameters = []
-            for name in self._get_torch_save_params()[0]:
-                obj = self
-                for part in name.split("."):
-                    obj = getattr(obj, part)
-                if isinstance(obj, th.nn.Module):
-                    self._parameters += [(f"{name}.{k}", p) for k, p in obj.named_parameters()]
+            self._parameters = [(f"{name}.{k}", p) for name, module in self.torch_modules().items()
+                                for k, p in module.named_parameters()]
         norms = th._foreach_norm([p.detach() for _, p in self._parameters])
         if not bool(th.isfinite(th.stack(norms)).all()):
             bad = next(k for (k, _), n in zip(self._parameters, norms) if not th.isfinite(n))

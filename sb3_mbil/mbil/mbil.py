@@ -22,7 +22,7 @@ import numpy as np
 import torch as th
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
-from sb3_mbil.common.demonstrations import ExpertData
+from sb3_mbil.common.demonstrations import ExpertData, as_demonstrations
 from sb3_mbil.common.flows import EVAL_CHUNK, block_split, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
@@ -248,6 +248,18 @@ class MBIL(OfflineAlgorithm):
         if self._targets is None:
             self._targets = self.balance_target(*self.expert_tuples())
         return self._targets
+
+    @th.no_grad()
+    def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
+        """The behaviour-cloning loss and the balance loss E[(target - log pi(a'|s'))^2] on (held-out) expert data."""
+        losses = super().validation_losses(expert_data)
+        if bool(self.flows.fitted):
+            t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
+            s, a, s_next, a_next = (self._to_tensor(t[k], kind) for k, kind in (
+                ("observations", "obs"), ("actions", "act"), ("next_observations", "obs"), ("next_actions", "act")))
+            residual = self.balance_target(s, a, s_next, a_next) - self.policy.log_prob(s_next, a_next)
+            losses["balance_loss"] = float(residual.pow(2).mean())
+        return losses
 
     @th.no_grad()
     def balance_diagnostics(self) -> dict[str, Any]:
