@@ -1,4 +1,4 @@
-"""DESIGN.md section 2: the density bookkeeping, checked on MDPs with known T and pi_D.
+"""The density bookkeeping (the README's method section), checked on MDPs with known T and pi_D.
 
 For a linear-Gaussian MDP (Box actions) and a softmax-policy MDP (Discrete actions):
 the fitted flows' held-out log-likelihoods are close to the true ones, the mean balance

@@ -7,7 +7,7 @@ from collections import defaultdict
 
 import numpy as np
 
-# Random-policy returns (DESIGN.md section 6) and published anchors (best published baseline,
+# Random-policy returns and published anchors (best published baseline,
 # read off the figures of earlier papers, about +-10; their data kept every 20th step).
 RANDOM_RETURN = {"CartPole-v1": 20.0, "Acrobot-v1": -500.0, "LunarLander-v3": -180.0}
 PUBLISHED_BEST = {
