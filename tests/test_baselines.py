@@ -110,3 +110,26 @@ def test_dsfn_margin_shrinks_across_iterations(sharp):
     n = model.num_timesteps
     model.learn(100, reset_num_timesteps=False)
     assert model.num_timesteps == n
+
+
+def test_shared_networks():
+    """The shared critics, target copies and soft policy over Q (sb3_mbil.common.networks)."""
+    from sb3_mbil.common.networks import MlpCritic, make_target, q_at, soft_q, soft_update
+
+    q = th.tensor([[1.0, 2.0, 3.0]])
+    log_pi, v = soft_q(q, temperature=0.5)
+    th.testing.assert_close(log_pi.exp().sum(), th.tensor(1.0))
+    th.testing.assert_close(v, 0.5 * th.logsumexp(q / 0.5, dim=-1))
+    assert soft_q(q, 1e-3)[1].item() == pytest.approx(3.0, abs=1e-2)  # a cold soft maximum is the maximum
+    assert q_at(q, th.tensor([2])).item() == 3.0
+    critic = MlpCritic(4, 1, action_dim=2, n_critics=2)
+    assert critic(th.zeros(5, 4), th.zeros(5, 2)).shape == (2, 5, 1)
+    target = make_target(critic)
+    assert not any(p.requires_grad for p in target.parameters())
+    with th.no_grad():
+        for p in critic.parameters():
+            p.add_(1.0)
+    before = [p.clone() for p in target.parameters()]
+    soft_update(target, critic, tau=0.25)
+    for b, t, c in zip(before, target.parameters(), critic.parameters()):
+        th.testing.assert_close(t, 0.75 * b + 0.25 * c)
