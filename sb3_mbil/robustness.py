@@ -113,6 +113,8 @@ def cases(workdir: Path) -> list[Case]:
         ("0-d n_observations", "n_observations", lambda: npz(n_observations=np.array(4))),
         ("float n_actions", "n_actions", lambda: npz(n_actions=np.array([3.0]))),
         ("episode_returns of the wrong length", "episode_returns", lambda: npz(episode_returns=np.zeros(3))),
+        ("terminated as strings", "terminated", lambda: npz(terminated=np.array(["False"]))),
+        ("a newer format_version", "format_version", lambda: npz(format_version=np.array(99))),
     ]
     for description, field, data in data_cases:
         out.append(Case("data", description, field,

@@ -299,6 +299,14 @@ class Demonstrations:
             if arrays[key].ndim == 0:
                 raise ValueError(f"{path}: {key}: expected an array with one entry per {'step' if key in ('observations', 'actions') else 'trajectory'}, "
                                  f"found a 0-d value {arrays[key]!r}")
+        if "format_version" in arrays and (arrays["format_version"].shape != () or not np.issubdtype(
+                arrays["format_version"].dtype, np.integer) or int(arrays["format_version"]) > FORMAT_VERSION):
+            raise ValueError(f"{path}: format_version: expected an integer <= {FORMAT_VERSION} (this version of sb3_mbil "
+                             f"reads format {FORMAT_VERSION}), found {arrays['format_version']!r}")
+        for key in ("terminated", "truncated"):
+            if arrays[key].dtype != bool and not (np.issubdtype(arrays[key].dtype, np.integer)
+                                                  and np.isin(arrays[key], (0, 1)).all()):
+                raise ValueError(f"{path}: {key}: expected booleans (one per trajectory), found dtype {arrays[key].dtype}")
         for key in ("n_observations", "n_actions"):
             if arrays[key].ndim != 1 or not np.issubdtype(arrays[key].dtype, np.integer) or np.any(arrays[key] < 0):
                 raise ValueError(f"{path}: {key}: expected a 1-d array of non-negative integers, found dtype "
