@@ -17,9 +17,11 @@ def main(argv=None):
     p.add_argument("--last", type=positive_int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
     p.add_argument("--paired-against", default=None, help="reference variant of the paired differences")
     p.add_argument("--draws", action="store_true", help="also the trajectories each seed drew (pool indices, mean return, steps)")
+    p.add_argument("--heldout", action="store_true",
+                   help="also: the return where the held-out BC loss was lowest (runs made with run_curves.py --holdout)")
     p.add_argument("--markdown", default=None, help="also write the tables here")
     a = p.parse_args(argv)
-    from sb3_mbil.benchmark.curves import curve_table, draw_table, paired_table, pool_experts
+    from sb3_mbil.benchmark.curves import curve_table, draw_table, heldout_table, paired_table, pool_experts
     from sb3_mbil.benchmark.results import read_result_rows, write_text
 
     rows = []
@@ -39,6 +41,8 @@ def main(argv=None):
     text += curve_table(rows, expert, last=a.last)
     if a.paired_against:
         text += "\n\n" + paired_table(rows, a.paired_against, last=a.last)
+    if a.heldout:
+        text += "\n\n" + heldout_table(rows)
     if a.draws:
         text += "\n\n" + draw_table(rows, last=a.last)
     print(text)

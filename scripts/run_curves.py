@@ -13,7 +13,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 
 import argparse
 
-from sb3_mbil.benchmark.cli import parse_seeds, positive_int
+from sb3_mbil.benchmark.cli import fraction, parse_seeds, positive_int
 
 
 def main(argv=None):
@@ -30,6 +30,8 @@ def main(argv=None):
     p.add_argument("--pool", default=None,
                    help="draw the trajectories from this pool (.npz path or shipped name) instead of the env's shipped pool (a CSV of its own: runs resume by variant, env and seed); "
                         "one env only; recorded in the settings column")
+    p.add_argument("--holdout", type=fraction, default=None,
+                   help="hold out this share of the expert steps and record the held-out BC loss at each evaluation")
     p.add_argument("--csv", required=True)
     p.add_argument("--plot", default=None)
     p.add_argument("--last", type=positive_int, default=10, help="the final return is each seed's mean over its last LAST evaluations")
@@ -66,7 +68,7 @@ def main(argv=None):
         if pool_env != a.envs[0]:
             p.error(f"--pool: expected demonstrations of {a.envs[0]}, found a pool of {pool_env} ({a.pool})")
     n = run_curves(variants, a.envs, a.seeds, a.csv, a.updates, a.eval_every, a.episodes, a.n_trajectories, pool=a.pool,
-                   use_ray=not a.local, address=a.address, num_cpus=a.num_cpus)
+                   use_ray=not a.local, address=a.address, num_cpus=a.num_cpus, holdout_fraction=a.holdout)
     print(f"{n} runs done now; results in {a.csv}")
     from sb3_mbil.benchmark.results import read_result_rows
 

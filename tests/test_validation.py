@@ -86,3 +86,27 @@ def test_mbil_monitor_the_balance_loss(demo):
     cb = ValidationCallback(eval_freq=10, block_length=30, monitor="balance_loss")
     MBIL("MlpPolicy", "CartPole-v1", expert_data=demo, seed=0, **FAST["mbil"]).learn(20, callback=cb)
     assert cb.best < float("inf") and all("balance_loss" in losses for _, losses in cb.history)
+
+
+def test_learning_curves_record_the_held_out_loss(tmp_path):
+    """run_curves --holdout: each evaluation row carries the held-out BC loss; curve_summary --heldout reads it."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, str(repo / "scripts/run_curves.py"), "--local", "--variants",
+                          '{"bc": ["bc", {}]}', "--envs", "CartPole-v1", "--seeds", "0-1", "--updates", "40",
+                          "--eval-every", "20", "--episodes", "2", "--holdout", "0.2", "--csv", "c.csv"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    with open(tmp_path / "c.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4 and all(float(r["heldout_bc_loss"]) > 0 for r in rows)
+    assert "('holdout_fraction', 0.2)" in rows[0]["settings"]
+    summary = subprocess.run([sys.executable, str(repo / "scripts/curve_summary.py"), "c.csv", "--heldout"],
+                             capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert summary.returncode == 0 and "return at the lowest held-out loss" in summary.stdout, summary.stderr[-2000:]
+    bad = subprocess.run([sys.executable, str(repo / "scripts/run_curves.py"), "--envs", "CartPole-v1", "--updates", "5",
+                          "--holdout", "1.5", "--csv", "d.csv"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert bad.returncode == 2 and "argument --holdout: expected a number in (0, 1)" in bad.stderr

@@ -19,7 +19,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
 from sb3_mbil.benchmark.results import append_rows, finished_keys
 
-CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit"]
+CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit",
+                 "heldout_bc_loss"]
 CURVE_KEY = ("algo", "env", "seed")
 
 # Figure 4: MBIL (MSE BC term, Gaussian policy) against BC with MSE, with and without weight decay.
@@ -88,8 +89,12 @@ def drawn_demonstrations(env: str, seed: int, n_trajectories: int = 1, pool: str
 
 def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_updates: int, eval_every: int = 500,
               n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None, commit: str | None = None,
-              extra_settings: dict[str, Any] | None = None) -> list[dict[str, Any]]:
-    """Train one variant and return one row per evaluation point."""
+              extra_settings: dict[str, Any] | None = None, holdout_fraction: float | None = None) -> list[dict[str, Any]]:
+    """Train one variant and return one row per evaluation point.
+
+    ``holdout_fraction``: hold out that share of the expert steps (blocks of 50, drawn with the run's seed) with a
+    :class:`~sb3_mbil.common.heldout.ValidationCallback`; each row then has the held-out BC loss at its step.
+    """
     import torch as th
 
     from sb3_mbil import ALGORITHMS
@@ -101,23 +106,32 @@ def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_
     demos = drawn_demonstrations(run.env, run.seed, n_trajectories, pool)
     model = ALGORITHMS[algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     scorer = _Scorer(run.env, eval_every, n_episodes, seed=1_000_000 + 1000 * run.seed)
-    model.learn(n_updates, callback=scorer)
+    callbacks: list[BaseCallback] = [scorer]
+    if holdout_fraction:
+        from sb3_mbil.common.heldout import ValidationCallback
+
+        validator = ValidationCallback(holdout_fraction, eval_freq=eval_every, block_length=50, seed=run.seed)
+        callbacks.insert(0, validator)
+    model.learn(n_updates, callback=callbacks)
+    heldout = {step: losses["bc_loss"] for step, losses in validator.history} if holdout_fraction else {}
     commit = commit or git_commit()
-    recorded = {"algo": algo, **settings, **({"expert_pool": pool} if pool else {})}
+    recorded = {"algo": algo, **settings, **({"expert_pool": pool} if pool else {}),
+                **({"holdout_fraction": holdout_fraction} if holdout_fraction else {})}
     base = {"algo": run.variant, "env": run.env, "seed": run.seed, "n_episodes": n_episodes,
             "n_trajectories": n_trajectories, "settings": repr(sorted(recorded.items())), "commit": commit}
-    return [{**base, "gradient_step": step, "mean_return": ret} for step, ret in scorer.points]
+    return [{**base, "gradient_step": step, "mean_return": ret, "heldout_bc_loss": heldout.get(step, "")}
+            for step, ret in scorer.points]
 
 
 def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv_path: str, n_updates: int,
                eval_every: int = 500, n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None,
                use_ray: bool = True, address: str | None = None, num_cpus: int | None = None,
-               extra_settings: dict[str, Any] | None = None) -> int:
+               extra_settings: dict[str, Any] | None = None, holdout_fraction: float | None = None) -> int:
     """All (variant, env, seed) runs not yet in the CSV; on Ray unless ``use_ray`` is False."""
     done = finished_keys(csv_path, CURVE_KEY)
     todo = [CurveRun(v, e, int(s)) for s, e, v in itertools.product(seeds, envs, variants) if CurveRun(v, e, int(s)).key() not in done]
     commit = git_commit()
-    args = (variants, n_updates, eval_every, n_episodes, n_trajectories, pool, commit, extra_settings)
+    args = (variants, n_updates, eval_every, n_episodes, n_trajectories, pool, commit, extra_settings, holdout_fraction)
     if not use_ray:
         for run in todo:
             append_rows(csv_path, run_curve(run, *args), CURVE_COLUMNS)
@@ -274,3 +288,25 @@ def plot_curves(rows: list[dict], path: str, expert: dict[str, float] | None = N
 
 __all__ = ["ABLATION_VARIANTS", "CURVE_COLUMNS", "FIGURE4_VARIANTS", "CurveRun", "curve_summary", "curve_table", "final_returns",
            "paired_table", "parse_variants", "plot_curves", "run_curve", "run_curves"]
+
+
+def heldout_table(rows: list[dict]) -> str:
+    """Markdown: does the held-out BC loss pick a good stopping point? Per (env, variant), over seeds: the return
+    at the point of lowest held-out loss, the final return and the best return of each seed's curve."""
+    runs: dict[tuple[str, str], dict[int, list[tuple[int, float, float]]]] = {}
+    for r in rows:
+        if r.get("heldout_bc_loss") in (None, ""):
+            continue
+        runs.setdefault((r["env"], r["algo"]), {}).setdefault(int(r["seed"]), []).append(
+            (int(r["gradient_step"]), float(r["mean_return"]), float(r["heldout_bc_loss"])))
+    lines = ["| env | variant | seeds | return at the lowest held-out loss | final return | best return | picked - final (paired) |",
+             "|---|---|---|---|---|---|---|"]
+    for (env, variant), by_seed in sorted(runs.items()):
+        picked = np.array([min(p, key=lambda x: x[2])[1] for p in by_seed.values()])
+        final = np.array([max(p)[1] for p in by_seed.values()])
+        best = np.array([max(x[1] for x in p) for p in by_seed.values()])
+        d = picked - final
+        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+        lines.append(f"| {env} | {variant} | {len(d)} | {picked.mean():.0f} +- {picked.std():.0f} | {final.mean():.0f} +- "
+                     f"{final.std():.0f} | {best.mean():.0f} | {d.mean():.0f} +- {se:.0f} |")
+    return "\n".join(lines)
