@@ -7,11 +7,12 @@ from sb3_mbil.common.heldout import ValidationCallback, split_blocks
 from sb3_mbil.dsfn import DSFN
 from sb3_mbil.edm import EDM
 from sb3_mbil.mbil import MBIL
+from sb3_mbil.mbil_c import MBILC
 from sb3_mbil.rcal import RCAL
 from sb3_mbil.version import __version__
 
 #: The one registry: the RL Zoo registration, the benchmark, the speed script and the tests read it.
-ALGORITHMS = {"mbil": MBIL, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN}
+ALGORITHMS = {"mbil": MBIL, "mbil_c": MBILC, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN}
 
 __all__ = [
     "ALGORITHMS",
@@ -20,6 +21,7 @@ __all__ = [
     "DSFN",
     "EDM",
     "MBIL",
+    "MBILC",
     "RCAL",
     "Demonstrations",
     "Trajectory",

@@ -121,9 +121,21 @@ def sample_dsfn_params(trial, n_actions: int, n_envs: int, additional_args: dict
     return convert_bc_params(params)
 
 
-SAMPLERS = {"mbil": sample_mbil_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
+def sample_mbil_c_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for MBIL-C: balance weights at data and model states, BC weight, model draws and their spread."""
+    params = _common(trial)
+    params["alpha"] = trial.suggest_float("alpha", 1e-2, 10.0, log=True)
+    params["alpha_model"] = trial.suggest_categorical("alpha_model", [0.0, 0.1, 0.3, 1.0, 3.0])
+    params["beta"] = trial.suggest_float("beta", 1e-1, 10.0, log=True)
+    params["n_model_states"] = trial.suggest_categorical("n_model_states", [1, 4, 16])
+    params["model_state_scale"] = trial.suggest_categorical("model_state_scale", [0.5, 1.0, 2.0, 4.0])
+    params["weight_decay"] = trial.suggest_categorical("weight_decay", [0.0, 1e-4, 1e-3])
+    return convert_bc_params(params)
+
+
+SAMPLERS = {"mbil": sample_mbil_params, "mbil_c": sample_mbil_c_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
             "rcal": sample_rcal_params, "dsfn": sample_dsfn_params}
-CONVERTERS = {"mbil": convert_mbil_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
+CONVERTERS = {"mbil": convert_mbil_params, "mbil_c": convert_bc_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
               "rcal": convert_bc_params, "dsfn": convert_bc_params}
 
 

@@ -4,6 +4,7 @@
   (zuko) fed by a conditioning network NN_c, as in the paper: NN_c(c) is the
   context of every coupling block, whose own hyper-network (NN_i) reads it.
 * :class:`ConditionalCategorical`: log q(a | c) for a discrete variable, a proper mass.
+* :class:`ConditionalGaussian`: log q(x | c), a diagonal Gaussian whose mean and std an MLP predicts.
 
 Both standardise their inputs with statistics kept in module buffers and
 return log-densities in the **raw** units of x (the standardisation Jacobian
@@ -140,9 +141,54 @@ class ConditionalCategorical(nn.Module):
     def fit_statistics(self, x: th.Tensor, c: th.Tensor) -> None:
         self.c_norm.fit(c)
 
+    def log_probs(self, c: th.Tensor, noise: float = 0.0) -> th.Tensor:
+        """log q(. | c) over every value, shape (len(c), n)."""
+        return th.log_softmax(self.net(self.c_norm(c, noise)), dim=-1)
+
     def log_prob(self, x: th.Tensor, c: th.Tensor, noise: float = 0.0) -> th.Tensor:
-        logits = self.net(self.c_norm(c, noise))
-        return th.log_softmax(logits, dim=-1).gather(1, x.long().view(-1, 1)).squeeze(1)
+        return self.log_probs(c, noise).gather(1, x.long().view(-1, 1)).squeeze(1)
+
+
+class ConditionalGaussian(nn.Module):
+    """log q(x | c) = sum_d log N(x_d; mu_d(c), sigma_d(c)^2): an MLP with mean and log-std heads.
+
+    The mean and std are predicted in standardised x units and returned in raw units (the
+    standardisation Jacobian is added back, as in :class:`ConditionalFlow`). Much cheaper than a flow;
+    :meth:`mean_std` gives the parameters (for closed-form KL divergences and sampling).
+    """
+
+    LOG_STD_BOUNDS = (-7.0, 2.0)
+
+    def __init__(self, x_dim: int, c_dim: int, hidden: Sequence[int] = (64, 64)):
+        super().__init__()
+        self.x_norm = Standardizer(x_dim)
+        self.c_norm = Standardizer(c_dim)
+        layers: list[nn.Module] = []
+        last = c_dim
+        for h in hidden:
+            layers += [nn.Linear(last, h), nn.ReLU()]
+            last = h
+        layers.append(nn.Linear(last, 2 * x_dim))
+        self.net = nn.Sequential(*layers)
+
+    def fit_statistics(self, x: th.Tensor, c: th.Tensor) -> None:
+        self.x_norm.fit(x)
+        self.c_norm.fit(c)
+
+    def _standardised(self, c: th.Tensor, noise: float = 0.0) -> tuple[th.Tensor, th.Tensor]:
+        mean, log_std = self.net(self.c_norm(c, noise)).chunk(2, dim=-1)
+        return mean, log_std.clamp(*self.LOG_STD_BOUNDS)
+
+    def mean_std(self, c: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """Mean and standard deviation of x given c, in raw units."""
+        mean, log_std = self._standardised(c)
+        return self.x_norm.mean + self.x_norm.std * mean, self.x_norm.std * log_std.exp()
+
+    def log_prob(self, x: th.Tensor, c: th.Tensor, noise: float = 0.0) -> th.Tensor:
+        z = self.x_norm(x, noise)
+        mean, log_std = self._standardised(c, noise)
+        logp = -0.5 * ((z - mean) * th.exp(-log_std)).pow(2) - log_std - 0.5 * math.log(2 * math.pi)
+        return logp.sum(dim=-1) + self.x_norm.log_abs_det()
 
 
 @th.no_grad()

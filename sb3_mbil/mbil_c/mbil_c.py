@@ -1,0 +1,321 @@
+"""MBIL-C: the Markov balance equation imposed over every next action and at model next states.
+
+The Markov balance equation of the expert's state-action chain (the paper, arXiv:2408.09125),
+
+    P(s', a' | s, a) = pi_D(a' | s') T(s' | s, a)       for every (s', a'),
+
+divided by its s'-marginal T(s' | s, a) (integrate it over a'), reads
+
+    P(a' | s, a, s') = pi_D(a' | s')                     for every a' and every s' that T can reach from (s, a).
+
+The paper's MBIL (``sb3_mbil.MBIL``) penalises the squared log residual of this equation at the one
+observed tuple (s, a, s', a'). MBIL-C ("complete") asks for the whole equation: the whole conditional
+over a' (a KL divergence, zero exactly when the equation holds for every a'), at the observed s' and at
+next states drawn from the fitted dynamics T, where the data has no label:
+
+    min_theta  beta    * L_BC(pi_theta, D)
+             + alpha   * E_{(s, a, s') ~ D}                         KL( P_eta(. | s, a, s') || pi_theta(. | s') )
+             + alpha_T * E_{(s, a) ~ D, s~' ~ T_psi^kappa(. | s, a)} KL( P_eta(. | s, a, s~') || pi_theta(. | s~') )
+
+T_psi^kappa is the fitted Gaussian T with its standard deviation multiplied by kappa
+(``model_state_scale``). P_eta and T_psi are fitted once by maximum likelihood (Gaussian input noise,
+early-stopped on held-out trajectory blocks) and frozen; P_eta's conditionals at the data and at
+``n_model_states`` draws of T per tuple are computed once and kept, so a policy update is one forward
+pass over one minibatch of expert states and one of model states.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.type_aliases import GymEnv, Schedule
+
+from sb3_mbil.common.demonstrations import ExpertData, as_demonstrations
+from sb3_mbil.common.flows import block_split, fit_conditional_density
+from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
+from sb3_mbil.common.offline import OfflineAlgorithm
+from sb3_mbil.common.validation import check_bool, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
+
+
+def balance_kl(policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
+    """KL( P(. | s, a, s') || pi(. | s') ) per row, exact: categorical against categorical (Discrete), diagonal
+    Gaussian against diagonal Gaussian in raw action units (Box). ``target`` is P's ``(log_probs,)`` or
+    ``(mean, log_std)``, ``heads`` the policy's at s'."""
+    if policy.discrete:
+        (log_p,) = target
+        log_pi = th.log_softmax(heads[0], dim=-1)
+        return (log_p.exp() * (log_p - log_pi)).sum(dim=1)
+    mean_p, log_std_p = target
+    mean_pi, log_std_pi = heads
+    ratio = th.exp(2.0 * (log_std_p - log_std_pi))
+    gap = (mean_p - mean_pi) * th.exp(-log_std_pi)
+    return (log_std_pi - log_std_p + 0.5 * (ratio + gap.pow(2) - 1.0)).sum(dim=1)
+
+
+class MBILC(OfflineAlgorithm):
+    """MBIL-C: Markov balance over every next action, at the data's and the dynamics model's next states.
+
+    Objective (module docstring): ``beta * L_BC + alpha * KL at data s' + alpha_T * KL at s~' ~ T``.
+    With ``alpha = alpha_T = 0`` it is BC. Deviations from the paper's MBIL: KL over the whole conditional
+    instead of the squared log residual at the observed a'; P is written as T(s' | s, a) P(a' | s, a, s')
+    (as in our MBIL), both models are MLPs (categorical / diagonal Gaussian), not flows; the balance term
+    is also imposed at states drawn from T.
+
+    :param policy: ``"MlpPolicy"`` (two ReLU hidden layers; categorical or Gaussian head)
+    :param env: the env or its id (spaces and evaluation only; never stepped while learning)
+    :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`); not saved with the model
+    :param alpha: weight of the balance term at the data's next states
+    :param alpha_model: weight of the balance term at next states drawn from T (``alpha_T``)
+    :param beta: weight of the behaviour-cloning term
+    :param learning_rate: policy Adam learning rate (constant or schedule)
+    :param batch_size: minibatch size (expert states; as many model states)
+    :param bc_loss: ``"auto"`` (NLL for Discrete, MSE of the mean for Box), ``"nll"`` or ``"mse"``
+    :param weight_decay: policy Adam weight decay
+    :param n_model_states: draws of T per expert tuple (kept for the whole run)
+    :param model_state_scale: kappa, the factor on T's standard deviation when drawing model states
+    :param model_hidden: hidden sizes of P's and T's MLPs
+    :param model_learning_rate: Adam learning rate of P and T
+    :param model_batch_size: their minibatch size
+    :param model_max_steps: maximum gradient steps of one fit
+    :param model_eval_every: steps between held-out evaluations (early stopping)
+    :param model_patience: held-out evaluations without improvement before stopping
+    :param model_noise_grid: Gaussian input-noise levels (standardised units) tried; the held-out
+        log-likelihood picks one for each model
+    :param validation_fraction: share of tuples (in blocks of consecutive steps) held out to stop the fits
+    :param model_refit: after choosing noise and step count, refit each model on all tuples
+    :param policy_kwargs: policy keyword arguments (``net_arch``, ``bounded_mean``, ...)
+    :param tensorboard_log: tensorboard folder
+    :param verbose: verbosity
+    :param seed: random seed
+    :param device: torch device
+    :param _init_setup_model: build the networks at construction
+    """
+
+    balance_model: BalanceModel
+
+    def __init__(
+        self,
+        policy: str | type[ImitationPolicy],
+        env: GymEnv | str | None,
+        expert_data: ExpertData | None = None,
+        alpha: float = 1.0,
+        alpha_model: float = 1.0,
+        beta: float = 1.0,
+        learning_rate: float | Schedule = 1e-3,
+        batch_size: int = 64,
+        bc_loss: str = "auto",
+        weight_decay: float = 0.0,
+        n_model_states: int = 4,
+        model_state_scale: float = 1.0,
+        model_hidden: Sequence[int] = (64, 64),
+        model_learning_rate: float = 1e-3,
+        model_batch_size: int = 256,
+        model_max_steps: int = 2000,
+        model_eval_every: int = 25,
+        model_patience: int = 10,
+        model_noise_grid: Sequence[float] = (0.1,),
+        validation_fraction: float = 0.2,
+        model_refit: bool = False,
+        policy_kwargs: dict[str, Any] | None = None,
+        tensorboard_log: str | None = None,
+        verbose: int = 0,
+        seed: int | None = None,
+        device: th.device | str = "auto",
+        _init_setup_model: bool = True,
+    ):
+        super().__init__(
+            policy=policy, env=env, expert_data=expert_data, learning_rate=learning_rate, batch_size=batch_size,
+            weight_decay=weight_decay, policy_kwargs=policy_kwargs, tensorboard_log=tensorboard_log, verbose=verbose,
+            seed=seed, device=device, _init_setup_model=_init_setup_model,
+        )
+        self.alpha = alpha
+        self.alpha_model = alpha_model
+        self.beta = beta
+        self.bc_loss = bc_loss
+        self.n_model_states = n_model_states
+        self.model_state_scale = model_state_scale
+        self.model_hidden = model_hidden
+        self.model_learning_rate = model_learning_rate
+        self.model_batch_size = model_batch_size
+        self.model_max_steps = model_max_steps
+        self.model_eval_every = model_eval_every
+        self.model_patience = model_patience
+        self.model_noise_grid = model_noise_grid
+        self.validation_fraction = validation_fraction
+        self.model_refit = model_refit
+        self.model_report: dict[str, Any] | None = None
+        if _init_setup_model:
+            self._setup_model()
+
+    # ------------------------------------------------------------------ setup
+    def _check_hyperparameters(self) -> None:
+        super()._check_hyperparameters()
+        self.alpha = check_real("alpha", self.alpha, low=0.0)
+        self.alpha_model = check_real("alpha_model", self.alpha_model, low=0.0)
+        self.beta = check_real("beta", self.beta, low=0.0)
+        if self.alpha == 0 and self.alpha_model == 0 and self.beta == 0:
+            raise ValueError("alpha, alpha_model, beta: expected at least one of them > 0, found all 0")
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        for name in ("n_model_states", "model_batch_size", "model_max_steps", "model_eval_every", "model_patience"):
+            setattr(self, name, check_int(name, getattr(self, name), low=1))
+        self.model_state_scale = check_real("model_state_scale", self.model_state_scale, low=0.0)
+        self.model_hidden = check_sizes("model_hidden", self.model_hidden)
+        self.model_learning_rate = check_real("model_learning_rate", self.model_learning_rate, low=0.0, low_open=True)
+        self.model_noise_grid = check_levels("model_noise_grid", self.model_noise_grid)
+        self.validation_fraction = check_real("validation_fraction", self.validation_fraction, low=0.0, high=1.0,
+                                              low_open=True, high_open=True)
+        self.model_refit = check_bool("model_refit", self.model_refit)
+
+    def _setup_model(self) -> None:
+        super()._setup_model()
+        self.balance_model = BalanceModel(
+            int(np.prod(self.observation_space.shape)), self.action_space, hidden=self.model_hidden
+        ).to(self.device)
+        self.balance_model.eval()
+
+    def _on_new_data(self) -> None:
+        super()._on_new_data()
+        self._cache: dict[str, th.Tensor] | None = None  # P's conditionals and T's draws, once the models are fitted
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_cache"]
+
+    def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
+        names, others = super()._get_torch_save_params()
+        return [*names, "balance_model"], others
+
+    # ------------------------------------------------------------------ P and T
+    def fit_models(self) -> dict[str, Any]:
+        """Fit P_eta(a' | s, a, s') and T_psi(s' | s, a) on the expert tuples (maximum likelihood).
+
+        Called by the first ``learn``. Returns (and keeps in ``self.model_report``) the chosen noise levels,
+        step counts and held-out log-likelihoods (nats per tuple, raw units).
+        """
+        tup = self.expert_tuples()
+        seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
+        train_idx, val_idx = block_split(self.demonstrations().tuples()["trajectory_index"], self.validation_fraction, seed)
+        common = dict(noise_grid=self.model_noise_grid, learning_rate=self.model_learning_rate,
+                      batch_size=self.model_batch_size, max_steps=self.model_max_steps, eval_every=self.model_eval_every,
+                      patience=self.model_patience, refit=self.model_refit, seed=seed)
+        model = self.balance_model
+        s, a, s_next, a_next = tup
+        fitted_p, report_p = fit_conditional_density(
+            model.make_next_action, *model.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common)
+        model.next_action.load_state_dict(fitted_p.state_dict())
+        report = {"next_action": report_p.as_dict(), "fit_seconds": report_p.seconds,
+                  "n_tuples": len(s), "n_heldout": len(val_idx)}
+        if self.alpha_model > 0:  # T is fitted only when its states are used
+            fitted_t, report_t = fit_conditional_density(
+                model.make_transition, *model.transition_inputs(s, a, s_next), train_idx, val_idx, **common)
+            model.transition.load_state_dict(fitted_t.state_dict())
+            report["transition"] = report_t.as_dict()
+            report["fit_seconds"] += report_t.seconds
+        model.fitted.fill_(True)
+        model.eval()
+        self.model_report = report
+        self._cache = None
+        return report
+
+    def _predecessors(self) -> th.Tensor:
+        """For every expert pair (s, a), the index of the tuple whose s' it is (-1 at a trajectory's first step)."""
+        out, n_tuples = [], 0
+        for length in self.demonstrations().episode_lengths:
+            length = int(length)
+            prev = np.full(length, -1, dtype=np.int64)
+            if length >= 2:
+                prev[1:] = n_tuples + np.arange(length - 1)
+                n_tuples += length - 1
+            out.append(prev)
+        return th.as_tensor(np.concatenate(out), device=self.device)
+
+    @th.no_grad()
+    def balance_targets(self) -> dict[str, th.Tensor]:
+        """P_eta's conditionals the policy is fitted to, computed once per fitted models and data.
+
+        ``data``: P(. | s, a, s') of every expert pair (s', a') whose predecessor (s, a) is known (``has_target``);
+        ``states`` / ``model``: the ``n_model_states`` draws s~' ~ T^kappa(. | s, a) per tuple and P(. | s, a, s~').
+        """
+        if self._cache is not None:
+            return self._cache
+        if not bool(self.balance_model.fitted):
+            raise RuntimeError("the models are not fitted yet: call fit_models() or learn()")
+        s, a, s_next, _ = self.expert_tuples()
+        model = self.balance_model
+        prev = self._predecessors()
+        has = prev >= 0
+        data = model.next_action_distribution(s, a, s_next)
+        n_pairs = len(prev)
+        cache: dict[str, Any] = {"has_target": has}
+        cache["data"] = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
+                                                                                               d[prev[has]]) for d in data)
+        if self.alpha_model > 0:
+            generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
+            k = self.n_model_states
+            states = model.sample_next_states(s, a, k, self.model_state_scale, generator)
+            cache["states"] = states
+            cache["model"] = model.next_action_distribution(s.repeat_interleave(k, 0), a.repeat_interleave(k, 0), states)
+        self._cache = cache
+        return cache
+
+    @th.no_grad()
+    def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
+        """The behaviour-cloning loss and the balance loss E[KL(P(.|s,a,s') || pi(.|s'))] on (held-out) expert data."""
+        losses = super().validation_losses(expert_data)
+        if bool(self.balance_model.fitted):
+            t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
+            s, a, s_next = (self._to_tensor(t[k], kind) for k, kind in (
+                ("observations", "obs"), ("actions", "act"), ("next_observations", "obs")))
+            target = self.balance_model.next_action_distribution(s, a, s_next)
+            losses["balance_loss"] = float(balance_kl(self.policy, target, self.policy.heads(s_next)).mean())
+        return losses
+
+    # ------------------------------------------------------------------ policy
+    def _prepare_training(self) -> None:
+        if not bool(self.balance_model.fitted):
+            self.fit_models()
+        self.balance_targets()
+        if self.model_report is not None:
+            self.logger.record("model/fit_seconds", self.model_report["fit_seconds"])
+            self.logger.record("model/next_action_heldout_ll", self.model_report["next_action"]["heldout_ll"])
+            if "transition" in self.model_report:
+                self.logger.record("model/transition_heldout_ll", self.model_report["transition"]["heldout_ll"])
+
+    def _train_step(self) -> None:
+        pairs, cache = self.expert_pairs(), self.balance_targets()
+        i = self._sample_indices(len(pairs.observations))
+        use_model = self.alpha_model > 0
+        j = self._sample_indices(len(cache["states"])) if use_model else None
+        # one forward pass over the expert states s and the model states s~'
+        states = th.cat([pairs.observations[i], cache["states"][j]]) if use_model else pairs.observations[i]
+        heads = self.policy.heads(states)
+        n = len(i)
+        heads_s = [h[:n] for h in heads]
+        loss = th.zeros((), device=self.device)
+
+        # BC term: L_BC(pi, D) on the expert's (s, a) pairs.
+        if self.beta > 0:
+            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind)
+            loss = loss + self.beta * bc
+            self._record("train/bc_loss", bc)
+
+        # Balance at the data: KL(P(. | s, a, s') || pi(. | s')), at the sampled pairs that have a predecessor.
+        if self.alpha > 0:
+            has = cache["has_target"][i].float()
+            kl = balance_kl(self.policy, [d[i] for d in cache["data"]], heads_s)
+            balance = (kl * has).sum() / has.sum().clamp(min=1.0)
+            loss = loss + self.alpha * balance
+            self._record("train/balance_loss", balance)
+
+        # Balance at model states: KL(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
+        if use_model:
+            model_kl = balance_kl(self.policy, [d[j] for d in cache["model"]], [h[n:] for h in heads]).mean()
+            loss = loss + self.alpha_model * model_kl
+            self._record("train/model_balance_loss", model_kl)
+
+        self.policy.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.policy.optimizer.step()

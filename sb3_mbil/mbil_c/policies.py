@@ -1,0 +1,88 @@
+"""Networks of MBIL-C: the policy pi_theta (shared with BC and MBIL) and the balance model (P_eta and T_psi).
+
+* ``P_eta(a' | s, a, s')``: a categorical (Discrete) or a diagonal Gaussian in raw action units (Box);
+  the policy's distribution has the same form, so KL(P_eta || pi) is exact and in closed form.
+* ``T_psi(s' | s, a)``: a diagonal Gaussian over the next state in raw units; its samples are the states
+  beyond the data at which the balance equation is also imposed.
+
+Both are MLPs (not flows): MBIL-C needs P's whole conditional over a' and samples of T, not a
+log-density at the data, and a small MLP is fitted in a fraction of a second.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import torch as th
+from gymnasium import spaces
+from torch import nn
+
+from sb3_mbil.common.flows import ConditionalCategorical, ConditionalGaussian
+from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
+
+__all__ = ["BalanceModel", "ImitationPolicy", "MlpPolicy"]
+
+
+class BalanceModel(nn.Module):
+    """P_eta(a' | s, a, s') and T_psi(s' | s, a).
+
+    :param obs_dim: flat observation dimension
+    :param action_space: Discrete or Box
+    :param hidden: hidden sizes of both MLPs
+    """
+
+    def __init__(self, obs_dim: int, action_space: spaces.Space, hidden: Sequence[int] = (64, 64)):
+        super().__init__()
+        self.discrete = isinstance(action_space, spaces.Discrete)
+        self.n_actions = int(action_space.n) if self.discrete else 0
+        self.act_in = self.n_actions if self.discrete else int(math.prod(action_space.shape))
+        self.obs_dim = obs_dim
+        self.hidden = tuple(hidden)
+        self.next_action = self.make_next_action()
+        self.transition = self.make_transition()
+        self.register_buffer("fitted", th.tensor(False))
+
+    def make_next_action(self) -> nn.Module:
+        """A fresh P_eta(a' | s, a, s')."""
+        c_dim = 2 * self.obs_dim + self.act_in
+        if self.discrete:
+            return ConditionalCategorical(self.n_actions, c_dim, self.hidden)
+        return ConditionalGaussian(self.act_in, c_dim, self.hidden)
+
+    def make_transition(self) -> ConditionalGaussian:
+        """A fresh T_psi(s' | s, a)."""
+        return ConditionalGaussian(self.obs_dim, self.obs_dim + self.act_in, self.hidden)
+
+    def encode_action(self, a: th.Tensor) -> th.Tensor:
+        """Actions as flat float features (one-hot for Discrete)."""
+        if self.discrete:
+            return nn.functional.one_hot(a.long().view(-1), self.n_actions).float()
+        return a.float().view(len(a), -1)
+
+    def transition_inputs(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """(x, c) of T: x = s', c = (s, a)."""
+        return s_next, th.cat([s, self.encode_action(a)], dim=1)
+
+    def next_action_inputs(self, s, a, s_next, a_next) -> tuple[th.Tensor, th.Tensor]:
+        """(x, c) of P_eta: x = a', c = (s, a, s')."""
+        x = a_next.long().view(-1) if self.discrete else a_next.float().view(len(a_next), -1)
+        return x, th.cat([s, self.encode_action(a), s_next], dim=1)
+
+    @th.no_grad()
+    def next_action_distribution(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, ...]:
+        """P_eta(. | s, a, s'): ``(log_probs,)`` (Discrete) or ``(mean, log_std)`` in raw units (Box)."""
+        c = th.cat([s, self.encode_action(a), s_next], dim=1)
+        if self.discrete:
+            return (self.next_action.log_probs(c),)
+        mean, std = self.next_action.mean_std(c)
+        return mean, std.log()
+
+    @th.no_grad()
+    def sample_next_states(self, s: th.Tensor, a: th.Tensor, k: int, scale: float, generator: th.Generator) -> th.Tensor:
+        """``k`` draws of s' ~ T_psi(. | s, a) per row with the std multiplied by ``scale``: shape (len(s) * k, obs_dim),
+        row-major (the draws of row i are rows i*k .. i*k+k-1)."""
+        mean, std = self.transition.mean_std(th.cat([s, self.encode_action(a)], dim=1))
+        mean, std = mean.repeat_interleave(k, 0), std.repeat_interleave(k, 0)
+        eps = th.randn(mean.shape, generator=generator, device=mean.device)
+        return mean + scale * std * eps

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# MBIL-C tuning (issue 18) on seeds >= 100 only; the reported grid uses seeds 0-9.
+# Lane A (classic control): LunarLander-v3 N = 1, seeds 100-114, 100 episodes, the cell where the paper's MBIL is
+# below BC; BC's rows on the same seeds are results/tuning/bc_wd1e-3.csv (tuned BC) and default.csv.
+# Lane B (MuJoCo): Hopper-v4 N = 1, seeds 100-102, 5e4 updates, evaluated every 5000 on 10 episodes, the same
+# protocol and policy (bounded mean, standardised inputs) as results/tuning/bounded_mean.csv's bc_tanh rows.
+# One CSV per setting; resumable: rerun to finish. Usage: bash scripts/tune_mbil_c.sh A|B
+set -euo pipefail
+cd "$(dirname "$0")/.."
+LANE=${1:-A}
+if [ "$LANE" = A ]; then
+  LL="--envs LunarLander-v3 --n-trajectories 1 --seeds 100-114 --episodes 100 --local"
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_default.csv
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model.csv --overrides '{"mbil_c": {"alpha_model": 0.0}}'
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_scale3.csv --overrides '{"mbil_c": {"model_state_scale": 3.0}}'
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_wd1e-3.csv --overrides '{"mbil_c": {"weight_decay": 0.001}}'
+else
+  TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
+  COMMON="--envs Hopper-v4 --seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --local"
+  python scripts/run_curves.py $COMMON --csv results/tuning/mbil_c_hopper.csv --variants "{
+    \"mbil_c_tanh\": [\"mbil_c\", {$TANH}], \"mbil_c_tanh_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, $TANH}]}"
+fi
