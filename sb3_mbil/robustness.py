@@ -55,6 +55,7 @@ def cases(workdir: Path) -> list[Case]:
     demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
     o, a = demo[0].observations, demo[0].actions
     fast = {"mbil": dict(flow_max_steps=20, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
+            "mbil_c": dict(model_max_steps=20, model_hidden=(16,)),
             "edm": dict(sgld_steps=1, sgld_buffer_size=50), "dsfn": dict(warm_start_steps=5, dqn_steps=5, sf_steps=5)}
     out: list[Case] = []
 

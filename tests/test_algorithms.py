@@ -16,6 +16,7 @@ from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL
 # Small settings so the contract tests stay fast (flow quality: test_correctness.py; behaviour: test_baselines.py).
 FAST = {
     "mbil": dict(flow_max_steps=60, flow_eval_every=20, noise_grid=(0.1,), flow_hidden=(32,), flow_transforms=2),
+    "mbil_c": dict(model_max_steps=60, model_eval_every=20, model_hidden=(32,)),
     "edm": dict(sgld_steps=2, sgld_buffer_size=200),
     "dsfn": dict(warm_start_steps=8, dqn_steps=6, sf_steps=5, max_iterations=4, target_update_interval=3),
 }

@@ -14,6 +14,7 @@ import torch as th
 from sb3_mbil import ALGORITHMS, BC, MBIL, Demonstrations, Trajectory, load_demonstrations
 
 FAST = {"mbil": dict(flow_max_steps=30, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
+        "mbil_c": dict(model_max_steps=30, model_hidden=(16,)),
         "edm": dict(sgld_steps=1, sgld_buffer_size=50),
         "dsfn": dict(warm_start_steps=5, dqn_steps=5, sf_steps=5, max_iterations=2)}
 

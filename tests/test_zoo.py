@@ -16,11 +16,12 @@ from sb3_mbil import ALGORITHMS
 
 TINY = {
     "mbil": ["--hyperparams", "flow_max_steps:40", "noise_grid:[0.1]", "flow_hidden:[32]"],
+    "mbil_c": ["--hyperparams", "model_max_steps:40", "model_hidden:[32]"],
     "edm": ["--hyperparams", "sgld_steps:2", "sgld_buffer_size:100"],
     "dsfn": ["--hyperparams", "warm_start_steps:20", "dqn_steps:10", "sf_steps:10", "max_iterations:2"],
 }
 # the paper's discrete baselines are checked where their issue asks: LunarLander-v3
-ZOO_ENV = {name: "CartPole-v1" if name in ("mbil", "bc") else "LunarLander-v3" for name in ALGORITHMS}
+ZOO_ENV = {name: "CartPole-v1" if name in ("mbil", "mbil_c", "bc") else "LunarLander-v3" for name in ALGORITHMS}
 
 
 def run(args, cwd, timeout=600, env=None):

@@ -172,9 +172,10 @@ class MBILC(OfflineAlgorithm):
 
     def _setup_model(self) -> None:
         super()._setup_model()
-        self.balance_model = BalanceModel(
-            int(np.prod(self.observation_space.shape)), self.action_space, hidden=self.model_hidden
-        ).to(self.device)
+        with th.random.fork_rng(devices=[]):  # P and T are refitted from their own seeds: keep the policy's stream
+            self.balance_model = BalanceModel(
+                int(np.prod(self.observation_space.shape)), self.action_space, hidden=self.model_hidden
+            ).to(self.device)
         self.balance_model.eval()
 
     def _on_new_data(self) -> None:

@@ -1,0 +1,125 @@
+"""MBIL-C's objective checked on MDPs with known T and pi_D (tests/synthetic.py), and its bookkeeping.
+
+* the balance divergence is the exact KL of torch.distributions (categorical and diagonal Gaussian);
+* P(a' | s, a, s') and T(s' | s, a) are fitted close to the true densities (for these MDPs the true
+  P(a' | s, a, s') is pi_D(a' | s'));
+* the model states are draws of T around the true next state, with T's spread times kappa;
+* balance-only training (beta = 0) recovers pi_D; with alpha = alpha_model = 0 MBIL-C is BC, bit for bit.
+"""
+
+import numpy as np
+import pytest
+import torch as th
+from synthetic import DiscreteActionMDP, LinearGaussianMDP
+
+from sb3_mbil import BC, MBILC, as_demonstrations, load_demonstrations
+from sb3_mbil.mbil_c.mbil_c import balance_kl
+
+T_TOLERANCE = 0.2  # nats per tuple
+P_TOLERANCE = 0.2
+
+
+def _tensor(x):
+    return th.as_tensor(x, dtype=th.float32 if x.dtype.kind == "f" else th.int64)
+
+
+def test_balance_kl_is_the_exact_kl_divergence():
+    from torch.distributions import Categorical, Independent, Normal, kl_divergence
+
+    policy_d = MBILC("MlpPolicy", "CartPole-v1", seed=0).policy
+    policy_c = MBILC("MlpPolicy", "Pendulum-v1", seed=0).policy
+    g = th.Generator().manual_seed(0)
+    log_p = th.log_softmax(th.randn(50, 2, generator=g), -1)
+    logits = th.randn(50, 2, generator=g)
+    expected = kl_divergence(Categorical(logits=log_p), Categorical(logits=logits))
+    th.testing.assert_close(balance_kl(policy_d, (log_p,), (logits,)), expected)
+    mean_p, log_std_p, mean_pi, log_std_pi = (th.randn(50, 1, generator=g) for _ in range(4))
+    expected = kl_divergence(Independent(Normal(mean_p, log_std_p.exp()), 1), Independent(Normal(mean_pi, log_std_pi.exp()), 1))
+    th.testing.assert_close(balance_kl(policy_c, (mean_p, log_std_p), (mean_pi, log_std_pi)), expected)
+
+
+@pytest.fixture(scope="module", params=[LinearGaussianMDP, DiscreteActionMDP], ids=["box", "discrete"])
+def fitted(request):
+    mdp = request.param()
+    model = MBILC("MlpPolicy", mdp.make_env(), expert_data=mdp.trajectories(30, 100, seed=0), alpha=1.0, alpha_model=1.0,
+                  beta=0.0, seed=0)
+    model.fit_models()
+    test = as_demonstrations(mdp.trajectories(20, 100, seed=1)).tuples()
+    return mdp, model, {k: test[k] for k in ("observations", "actions", "next_observations", "next_actions")}
+
+
+def test_models_match_the_true_densities(fitted):
+    mdp, model, test = fitted
+    s, a, s2, a2 = (_tensor(test[k]) for k in ("observations", "actions", "next_observations", "next_actions"))
+    with th.no_grad():
+        log_p = model.balance_model.next_action.log_prob(*model.balance_model.next_action_inputs(s, a, s2, a2)).numpy()
+        log_t = model.balance_model.transition.log_prob(*model.balance_model.transition_inputs(s, a, s2)).numpy()
+    s64, s2_64 = test["observations"].astype(np.float64), test["next_observations"].astype(np.float64)
+    assert abs(log_p.mean() - mdp.log_pi(s2_64, test["next_actions"]).mean()) < P_TOLERANCE
+    assert abs(log_t.mean() - mdp.log_t(s64, test["actions"], s2_64).mean()) < T_TOLERANCE
+    assert np.isfinite(model.model_report["next_action"]["heldout_ll"]) and model.model_report["n_heldout"] > 0
+
+
+def test_model_states_are_draws_of_t(fitted):
+    mdp, model, _ = fitted
+    s, a, s2, _ = model.expert_tuples()
+    k = model.n_model_states
+    states = model.balance_targets()["states"].numpy().astype(np.float64)
+    s64 = s.numpy().astype(np.float64).repeat(k, 0)
+    actions = a.numpy().repeat(k, 0)
+    true_mean = s64 @ mdp.A.T + (actions.reshape(-1, 1) @ mdp.B.T if isinstance(mdp, LinearGaussianMDP)
+                                 else mdp.B[:, actions.astype(int)].T)
+    gap = states - true_mean
+    with th.no_grad():
+        _, std = model.balance_model.transition.mean_std(th.cat([s, model.balance_model.encode_action(a)], 1))
+    assert np.abs(gap.mean(0)).max() < 0.03
+    assert np.abs(gap.std(0) / std.numpy().mean(0) - 1).max() < 0.1  # spread: T's own
+    assert np.abs(gap.std(0) / mdp.sigma_s - 1).max() < 0.4  # and near the truth
+    # kappa scales the spread around the same means
+    model.model_state_scale = 0.0
+    model._cache = None
+    still = model.balance_targets()["states"].numpy()
+    assert np.abs(still - states).max() > 0.1
+    assert np.allclose(still[::k], still[1::k]) and np.abs(still - true_mean).std(0).max() < 0.1
+    model.model_state_scale = 1.0
+    model._cache = None
+    np.testing.assert_array_equal(model.balance_targets()["states"].numpy(), states.astype(np.float32))  # seeded
+
+
+def test_balance_only_training_recovers_the_expert_policy(fitted):
+    mdp, model, test = fitted
+    states = test["next_observations"]
+    model.learn(3000)
+    with th.no_grad():
+        if isinstance(mdp, LinearGaussianMDP):
+            mean, log_std = model.policy.mean_log_std(th.as_tensor(states))
+            assert np.sqrt(((mean.numpy() - states @ mdp.K.T) ** 2).mean()) < 0.15
+            assert abs(log_std.exp().mean().item() / mdp.sigma_a - 1) < 0.25
+        else:
+            probs = th.softmax(model.policy.logits(th.as_tensor(states)), -1).numpy()
+            assert 0.5 * np.abs(probs - mdp.probs(states)).sum(1).mean() < 0.1
+
+
+def test_data_targets_belong_to_each_pairs_predecessor():
+    demos = load_demonstrations("CartPole-v1").sample(2, seed=0)
+    model = MBILC("MlpPolicy", "CartPole-v1", expert_data=demos, alpha_model=0.0, model_max_steps=20, seed=0)
+    model.fit_models()
+    cache = model.balance_targets()
+    pairs = model.expert_pairs()
+    first = np.r_[0, np.cumsum(demos.episode_lengths)[:-1]]
+    has = cache["has_target"].numpy()
+    assert not has[first].any() and has.sum() == len(has) - len(first)
+    p = int(first[1]) + 5  # the sixth step of the second trajectory
+    expected = model.balance_model.next_action_distribution(pairs.observations[p - 1 : p], pairs.actions[p - 1 : p],
+                                                            pairs.observations[p : p + 1])[0]
+    th.testing.assert_close(cache["data"][0][p : p + 1], expected)
+    assert "transition" not in model.model_report and "states" not in cache  # T is not fitted when unused
+
+
+def test_without_balance_terms_it_is_bc():
+    demos = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    bc = BC("MlpPolicy", "CartPole-v1", expert_data=demos, seed=3).learn(200)
+    mbil_c = MBILC("MlpPolicy", "CartPole-v1", expert_data=demos, alpha=0.0, alpha_model=0.0, model_max_steps=20,
+                   seed=3).learn(200)
+    for (name, a), b in zip(bc.policy.state_dict().items(), mbil_c.policy.state_dict().values()):
+        th.testing.assert_close(a, b, rtol=0, atol=0, msg=name)
