@@ -10,12 +10,16 @@ divided by its s'-marginal T(s' | s, a) (integrate it over a'), reads
 
 The paper's MBIL (``sb3_mbil.MBIL``) penalises the squared log residual of this equation at the one
 observed tuple (s, a, s', a'). MBIL-C ("complete") asks for the whole equation: the whole conditional
-over a' (a KL divergence, zero exactly when the equation holds for every a'), at the observed s' and at
-next states drawn from the fitted dynamics T, where the data has no label:
+over a' (a divergence D that is zero exactly when the equation holds for every a'), at the observed s'
+and at next states drawn from the fitted dynamics T, where the data has no label:
 
     min_theta  beta    * L_BC(pi_theta, D)
-             + alpha   * E_{(s, a, s') ~ D}                         KL( P_eta(. | s, a, s') || pi_theta(. | s') )
-             + alpha_T * E_{(s, a) ~ D, s~' ~ T_psi^kappa(. | s, a)} KL( P_eta(. | s, a, s~') || pi_theta(. | s~') )
+             + alpha   * E_{(s, a, s') ~ D}                         D( P_eta(. | s, a, s') || pi_theta(. | s') )
+             + alpha_T * E_{(s, a) ~ D, s~' ~ T_psi^kappa(. | s, a)} D( P_eta(. | s, a, s~') || pi_theta(. | s~') )
+
+D is the KL divergence for Discrete actions (categorical against categorical) and, by default, the squared
+2-Wasserstein distance for Box actions (diagonal Gaussian against diagonal Gaussian,
+``|mean_P - mean_pi|^2 + |std_P - std_pi|^2``, in the units of the MSE behaviour-cloning term; KL is an option).
 
 T_psi^kappa is the fitted Gaussian T with its standard deviation multiplied by kappa
 (``model_state_scale``). P_eta and T_psi are fitted once by maximum likelihood (Gaussian input noise,
@@ -31,14 +35,33 @@ from typing import Any
 
 import numpy as np
 import torch as th
+from gymnasium import spaces
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData, as_demonstrations
 from sb3_mbil.common.flows import block_split, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
-from sb3_mbil.common.validation import check_bool, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
 from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
+
+
+DIVERGENCES = ("auto", "kl", "w2")
+
+
+def balance_w2(target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
+    """Squared 2-Wasserstein distance between diagonal Gaussians P(. | s, a, s') and pi(. | s') per row:
+    ``|mean_P - mean_pi|^2 + |std_P - std_pi|^2``. Zero exactly where KL is, but in the action's units, like
+    the MSE behaviour-cloning term (KL weighs the mean gap by 1 / std_pi^2, which a near-deterministic expert
+    makes huge)."""
+    mean_p, log_std_p = target
+    mean_pi, log_std_pi = heads
+    return ((mean_p - mean_pi).pow(2) + (log_std_p.exp() - log_std_pi.exp()).pow(2)).sum(dim=1)
+
+
+def balance_divergence(kind: str, policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
+    """D( P(. | s, a, s') || pi(. | s') ) per row: ``"kl"`` or ``"w2"`` (Box only)."""
+    return balance_kl(policy, target, heads) if kind == "kl" else balance_w2(target, heads)
 
 
 def balance_kl(policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
@@ -59,8 +82,8 @@ def balance_kl(policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequ
 class MBILC(OfflineAlgorithm):
     """MBIL-C: Markov balance over every next action, at the data's and the dynamics model's next states.
 
-    Objective (module docstring): ``beta * L_BC + alpha * KL at data s' + alpha_T * KL at s~' ~ T``.
-    With ``alpha = alpha_T = 0`` it is BC. Deviations from the paper's MBIL: KL over the whole conditional
+    Objective (module docstring): ``beta * L_BC + alpha * D at data s' + alpha_T * D at s~' ~ T``.
+    With ``alpha = alpha_T = 0`` it is BC. Deviations from the paper's MBIL: a divergence over the whole conditional
     instead of the squared log residual at the observed a'; P is written as T(s' | s, a) P(a' | s, a, s')
     (as in our MBIL), both models are MLPs (categorical / diagonal Gaussian), not flows; the balance term
     is also imposed at states drawn from T.
@@ -74,6 +97,8 @@ class MBILC(OfflineAlgorithm):
     :param learning_rate: policy Adam learning rate (constant or schedule)
     :param batch_size: minibatch size (expert states; as many model states)
     :param bc_loss: ``"auto"`` (NLL for Discrete, MSE of the mean for Box), ``"nll"`` or ``"mse"``
+    :param divergence: the balance divergence D(P || pi): ``"auto"`` (KL for Discrete, W2 for Box), ``"kl"`` or
+        ``"w2"`` (squared 2-Wasserstein distance of the Gaussians; Box only)
     :param weight_decay: policy Adam weight decay
     :param n_model_states: draws of T per expert tuple (kept for the whole run)
     :param model_state_scale: kappa, the factor on T's standard deviation when drawing model states
@@ -108,6 +133,7 @@ class MBILC(OfflineAlgorithm):
         learning_rate: float | Schedule = 1e-3,
         batch_size: int = 64,
         bc_loss: str = "auto",
+        divergence: str = "auto",
         weight_decay: float = 0.0,
         n_model_states: int = 4,
         model_state_scale: float = 1.0,
@@ -136,6 +162,7 @@ class MBILC(OfflineAlgorithm):
         self.alpha_model = alpha_model
         self.beta = beta
         self.bc_loss = bc_loss
+        self.divergence = divergence
         self.n_model_states = n_model_states
         self.model_state_scale = model_state_scale
         self.model_hidden = model_hidden
@@ -160,6 +187,11 @@ class MBILC(OfflineAlgorithm):
         if self.alpha == 0 and self.alpha_model == 0 and self.beta == 0:
             raise ValueError("alpha, alpha_model, beta: expected at least one of them > 0, found all 0")
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self.divergence = check_choice("divergence", self.divergence, DIVERGENCES)
+        discrete = isinstance(self.action_space, spaces.Discrete)
+        if self.divergence == "w2" and discrete:
+            raise ValueError("divergence: expected 'kl' or 'auto' for Discrete actions, found 'w2'")
+        self._divergence = ("kl" if discrete else "w2") if self.divergence == "auto" else self.divergence
         for name in ("n_model_states", "model_batch_size", "model_max_steps", "model_eval_every", "model_patience"):
             setattr(self, name, check_int(name, getattr(self, name), low=1))
         self.model_state_scale = check_real("model_state_scale", self.model_state_scale, low=0.0)
@@ -264,14 +296,15 @@ class MBILC(OfflineAlgorithm):
 
     @th.no_grad()
     def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
-        """The behaviour-cloning loss and the balance loss E[KL(P(.|s,a,s') || pi(.|s'))] on (held-out) expert data."""
+        """The behaviour-cloning loss and the balance loss E[D(P(.|s,a,s') || pi(.|s'))] on (held-out) expert data."""
         losses = super().validation_losses(expert_data)
         if bool(self.balance_model.fitted):
             t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
             s, a, s_next = (self._to_tensor(t[k], kind) for k, kind in (
                 ("observations", "obs"), ("actions", "act"), ("next_observations", "obs")))
             target = self.balance_model.next_action_distribution(s, a, s_next)
-            losses["balance_loss"] = float(balance_kl(self.policy, target, self.policy.heads(s_next)).mean())
+            losses["balance_loss"] = float(balance_divergence(self._divergence, self.policy, target,
+                                                              self.policy.heads(s_next)).mean())
         return losses
 
     # ------------------------------------------------------------------ policy
@@ -303,17 +336,18 @@ class MBILC(OfflineAlgorithm):
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
 
-        # Balance at the data: KL(P(. | s, a, s') || pi(. | s')), at the sampled pairs that have a predecessor.
+        # Balance at the data: D(P(. | s, a, s') || pi(. | s')), at the sampled pairs that have a predecessor.
         if self.alpha > 0:
             has = cache["has_target"][i].float()
-            kl = balance_kl(self.policy, [d[i] for d in cache["data"]], heads_s)
+            kl = balance_divergence(self._divergence, self.policy, [d[i] for d in cache["data"]], heads_s)
             balance = (kl * has).sum() / has.sum().clamp(min=1.0)
             loss = loss + self.alpha * balance
             self._record("train/balance_loss", balance)
 
-        # Balance at model states: KL(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
+        # Balance at model states: D(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
         if use_model:
-            model_kl = balance_kl(self.policy, [d[j] for d in cache["model"]], [h[n:] for h in heads]).mean()
+            model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in cache["model"]],
+                                          [h[n:] for h in heads]).mean()
             loss = loss + self.alpha_model * model_kl
             self._record("train/model_balance_loss", model_kl)
 
