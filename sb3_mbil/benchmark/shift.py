@@ -37,6 +37,7 @@ SHIFT_KEY = ("algo", "env", "seed")
 def perturb_initial_state(env: gym.Env, noise: np.ndarray) -> np.ndarray:
     """Move the state of a freshly reset env by ``noise`` (observation units); return the new observation."""
     base = env.unwrapped
+    noise = np.asarray(noise, dtype=np.float64).reshape(-1)
     if hasattr(base, "set_state") and hasattr(base, "init_qpos"):  # MuJoCo: obs = (qpos[k:], qvel)
         nq, nv = base.model.nq, base.model.nv
         n_pos = len(noise) - nv
@@ -54,8 +55,8 @@ def perturb_initial_state(env: gym.Env, noise: np.ndarray) -> np.ndarray:
         half_w, half_h = ll.VIEWPORT_W / ll.SCALE / 2, ll.VIEWPORT_H / ll.SCALE / 2
         lander = base.lander
         vx, vy = lander.linearVelocity
-        lander.linearVelocity = (vx + noise[2] * ll.FPS / half_w, vy + noise[3] * ll.FPS / half_h)
-        lander.angularVelocity = lander.angularVelocity + noise[5] * ll.FPS / 20.0
+        lander.linearVelocity = (float(vx + noise[2] * ll.FPS / half_w), float(vy + noise[3] * ll.FPS / half_h))
+        lander.angularVelocity = float(lander.angularVelocity + noise[5] * ll.FPS / 20.0)
         pos, vel = lander.position, lander.linearVelocity
         return np.array([
             (pos.x - half_w) / half_w, (pos.y - (base.helipad_y + ll.LEG_DOWN / ll.SCALE)) / half_h,
