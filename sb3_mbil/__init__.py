@@ -6,6 +6,7 @@ from sb3_mbil.common.demonstrations import Demonstrations, Trajectory, as_demons
 from sb3_mbil.common.heldout import ValidationCallback, split_blocks
 from sb3_mbil.dsfn import DSFN
 from sb3_mbil.edm import EDM
+from sb3_mbil.export import export_policy
 from sb3_mbil.mbil import MBIL
 from sb3_mbil.mbil_c import MBILC
 from sb3_mbil.rcal import RCAL
@@ -28,6 +29,7 @@ __all__ = [
     "ValidationCallback",
     "__version__",
     "as_demonstrations",
+    "export_policy",
     "load_demonstrations",
     "split_blocks",
 ]

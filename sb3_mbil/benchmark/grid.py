@@ -91,6 +91,7 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     returns = evaluate(model, run.env, n_episodes, seed=1_000_000 + run.seed, n_envs=n_eval_envs)
     report = getattr(model, "flow_report", None) or {}
     diagnostics = {}
+    fit_seconds = report.get("fit_seconds", (getattr(model, "model_report", None) or {}).get("fit_seconds", 0.0))
     if report:
         diagnostics = {
             "target_mean": round(float(model.tuple_targets().mean()), 4),
@@ -104,7 +105,7 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
         "std_return": float(np.std(returns)),
         "n_episodes": len(returns),
         "train_seconds": round(train_seconds, 1),
-        "flow_fit_seconds": round(report.get("fit_seconds", 0.0), 1),
+        "flow_fit_seconds": round(fit_seconds, 1),  # MBIL's flows, MBIL-C's P and T
         "gradient_steps": steps,
         "settings": repr(sorted({**settings, "n_timesteps": steps}.items())),
         "commit": commit or git_commit(),
