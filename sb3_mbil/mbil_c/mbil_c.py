@@ -45,7 +45,6 @@ from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
 from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
 
-
 DIVERGENCES = ("auto", "kl", "w2")
 
 
