@@ -255,6 +255,7 @@ def fit_conditional_density(
     patience: int,
     refit: bool,
     seed: int,
+    log: Callable[[str], None] | None = None,
 ) -> tuple[nn.Module, FitReport]:
     """Maximum likelihood with Gaussian input noise; noise level and step count chosen on held-out data.
 
@@ -262,7 +263,8 @@ def fit_conditional_density(
     log-likelihood every ``eval_every`` steps, stop after ``patience`` evaluations
     without improvement and keep the best point. The noise level with the best
     held-out log-likelihood wins; with ``refit`` the model is then retrained on
-    all the data with that noise for the chosen number of steps.
+    all the data with that noise for the chosen number of steps. ``log`` receives one line per noise level
+    (progress: the algorithms pass ``print`` when ``verbose >= 1``).
     """
     start = time.process_time()
     tr, va = th.as_tensor(train_idx, device=x.device), th.as_tensor(val_idx, device=x.device)
@@ -273,6 +275,8 @@ def fit_conditional_density(
             make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k
         )
         candidates[f"{noise:g}"] = {"heldout_ll": val_ll, "steps": steps}
+        if log is not None:
+            log(f"noise {noise:g}: held-out log-likelihood {val_ll:.3f} at step {steps} ({time.process_time() - start:.1f} s)")
         if best is None or val_ll > best[0]:
             best = (val_ll, float(noise), steps, state)
     assert best is not None

@@ -312,6 +312,12 @@ class OfflineAlgorithm(BaseAlgorithm):
         """True when the method has nothing left to do (an algorithm with a finite schedule); ``learn`` then returns."""
         return False
 
+    def _fit_log(self, what: str):
+        """A progress printer for a model fit (``verbose >= 1``), or None."""
+        if self.verbose < 1:
+            return None
+        return lambda line: print(f"{type(self).__name__}: {what}: {line}", flush=True)
+
     def _prepare_training(self) -> None:
         """Called once at the start of every ``learn`` (after the logger is set)."""
 
@@ -325,7 +331,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         total_timesteps: int,
         callback: MaybeCallback = None,
         log_interval: int = 1000,
-        tb_log_name: str = "run",
+        tb_log_name: str | None = None,
         reset_num_timesteps: bool = True,
         progress_bar: bool = False,
     ) -> SelfOffline:
@@ -334,7 +340,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         :param total_timesteps: number of gradient steps
         :param callback: SB3 callback(s), called once per gradient step
         :param log_interval: dump the logger every this many gradient steps
-        :param tb_log_name: tensorboard run name
+        :param tb_log_name: tensorboard run name (default: the algorithm's class name, as SB3's algorithms do)
         :param reset_num_timesteps: reset the step counter (False to continue)
         :param progress_bar: show a progress bar (tqdm and rich)
         """
@@ -347,7 +353,7 @@ class OfflineAlgorithm(BaseAlgorithm):
             raise ValueError(f"total_timesteps: expected an integer number of gradient steps >= 0 (0 prepares the "
                              f"algorithm, e.g. fits MBIL's flows, and trains nothing), found {total_timesteps!r}")
         total_timesteps, callback = self._setup_learn(
-            int(total_timesteps), callback, reset_num_timesteps, tb_log_name, progress_bar
+            int(total_timesteps), callback, reset_num_timesteps, tb_log_name or type(self).__name__, progress_bar
         )
         self.demonstrations()  # check the data before anything else
         # callbacks start before anything is fitted: a ValidationCallback may hold out part of the data here

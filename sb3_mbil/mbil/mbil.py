@@ -206,12 +206,16 @@ class MBIL(OfflineAlgorithm):
             seed=seed,
         )
         s, a, s_next, a_next = tup
+        if self.verbose >= 1:
+            print(f"MBIL: fitting T(s' | s, a) and P(a' | s, a, s') on {len(s)} expert tuples")
         fitted_t, report_t = fit_conditional_density(
             self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
             **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)},
+            log=self._fit_log("T(s' | s, a)"),
         )
         fitted_p, report_p = fit_conditional_density(
-            self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common
+            self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common,
+            log=self._fit_log("P(a' | s, a, s')"),
         )
         self.flows.transition.load_state_dict(fitted_t.state_dict())
         self.flows.next_action.load_state_dict(fitted_p.state_dict())

@@ -235,14 +235,19 @@ class MBILC(OfflineAlgorithm):
                       patience=self.model_patience, refit=self.model_refit, seed=seed)
         model = self.balance_model
         s, a, s_next, a_next = tup
+        if self.verbose >= 1:
+            which = "P(a' | s, a, s') and T(s' | s, a)" if self.alpha_model > 0 else "P(a' | s, a, s')"
+            print(f"MBILC: fitting {which} on {len(s)} expert tuples")
         fitted_p, report_p = fit_conditional_density(
-            model.make_next_action, *model.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common)
+            model.make_next_action, *model.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common,
+            log=self._fit_log("P(a' | s, a, s')"))
         model.next_action.load_state_dict(fitted_p.state_dict())
         report = {"next_action": report_p.as_dict(), "fit_seconds": report_p.seconds,
                   "n_tuples": len(s), "n_heldout": len(val_idx)}
         if self.alpha_model > 0:  # T is fitted only when its states are used
             fitted_t, report_t = fit_conditional_density(
-                model.make_transition, *model.transition_inputs(s, a, s_next), train_idx, val_idx, **common)
+                model.make_transition, *model.transition_inputs(s, a, s_next), train_idx, val_idx, **common,
+                log=self._fit_log("T(s' | s, a)"))
             model.transition.load_state_dict(fitted_t.state_dict())
             report["transition"] = report_t.as_dict()
             report["fit_seconds"] += report_t.seconds
