@@ -226,10 +226,16 @@ def test_resumable_checkpoints_are_whole_and_pruned(tmp_path):
         ResumableCheckpoint(save_freq=50, save_path=str(tmp_path), keep=0)
 
 
-def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch):
+def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch, caplog):
+    import logging
+
     from sb3_mbil.experts import train_zoo_expert
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
-    train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=2000, n_evaluations=10, stop_at_return=-1e9)
+    with caplog.at_level(logging.INFO, logger="sb3_mbil.experts"):
+        train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=2000, n_evaluations=10, stop_at_return=-1e9)
     log = (tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n2000.log").read_text()
     assert "Stopping: mean return" in log and "at 200 steps" in log
+    # training is not silent: each of rl_zoo3's evaluations is reported as progress
+    assert any(r.getMessage().startswith("expert dqn on CartPole-v1: 200 / 2000 steps, evaluation return")
+               for r in caplog.records), [r.getMessage() for r in caplog.records]

@@ -251,15 +251,30 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         _write_json(progress_file, progress)
         if verbose:
             logger.info("training the expert locally with rl_zoo3: %s", " ".join(cmd))
-        with open(folder.with_suffix(".log"), "a") as log:
-            proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
-        if proc.returncode != 0:
-            raise RuntimeError(f"rl_zoo3 training failed (exit {proc.returncode}); see {folder.with_suffix('.log')}")
+        returncode = _run_logged(cmd, folder.with_suffix(".log"), f"{algo} on {env_id}", done, budget, verbose)
+        if returncode != 0:
+            raise RuntimeError(f"rl_zoo3 training failed (exit {returncode}); see {folder.with_suffix('.log')}")
     best = _best_run(runs_dir, env_id)
     if best is None:
         raise RuntimeError(f"rl_zoo3 training left no best_model.zip in {runs_dir}; see {folder.with_suffix('.log')}")
     return load_expert_file(best / "best_model.zip", env_id, algo, best / env_id / "vecnormalize.pkl",
                             source=f"zoo:{algo} seed={seed}")
+
+
+def _run_logged(cmd: list[str], log_path: Path, what: str, done: int, budget: int, verbose: int) -> int:
+    """Run ``cmd``, appending its output to ``log_path``; with ``verbose``, report each of rl_zoo3's evaluations
+    (``Eval num_timesteps=..., episode_reward=...``) as progress, so minutes of training are not silent."""
+    with open(log_path, "a") as log:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            log.write(line)
+            if verbose and line.startswith("Eval num_timesteps="):
+                fields = dict(part.strip().split("=", 1) for part in line.strip().split(",") if "=" in part)
+                steps = int(fields.get("Eval num_timesteps", 0)) + done
+                logger.info("expert %s: %d / %d steps, evaluation return %s", what, steps, budget,
+                            fields.get("episode_reward", "?"))
+        return proc.wait()
 
 
 def _off_policy(algo: str) -> bool:
