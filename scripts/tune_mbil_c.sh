@@ -23,3 +23,17 @@ else
   python scripts/run_curves.py $COMMON --csv results/tuning/mbil_c_hopper.csv --variants "{
     \"mbil_c_tanh\": [\"mbil_c\", {$TANH}], \"mbil_c_tanh_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, $TANH}]}"
 fi
+if [ "$LANE" = C ] || [ "$LANE" = D ]; then
+  # The W2 runs above (seed 100: 82 and 409 at the end, BC 2853) pull the policy's mean onto P's mean, which on one
+  # trajectory is a smoother, biased copy of BC (held-out MSE to a' 0.036 against 0.044 for "repeat a"): with
+  # anchor_to_data P's mean is replaced by the observed a' at the data, and P contributes its std and, at model
+  # states, its change from the data. beta2 (BC with twice the weight, no balance) is the control for the doubled MSE.
+  TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
+  ENV=$([ "$LANE" = C ] && echo Hopper-v4 || echo Walker2d-v4)
+  CSV=$([ "$LANE" = C ] && echo results/tuning/mbil_c_hopper_anchor.csv || echo results/tuning/mbil_c_walker2d_anchor.csv)
+  python scripts/run_curves.py --envs $ENV --seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --local \
+    --csv $CSV --variants "{
+    \"mbil_c_anchor_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, \"anchor_to_data\": true, $TANH}],
+    \"mbil_c_beta2_no_balance\": [\"mbil_c\", {\"alpha\": 0.0, \"alpha_model\": 0.0, \"beta\": 2.0, $TANH}],
+    \"mbil_c_anchor_model0.1\": [\"mbil_c\", {\"alpha_model\": 0.1, \"model_state_scale\": 0.3, \"anchor_to_data\": true, $TANH}]}"
+fi

@@ -101,6 +101,9 @@ class MBILC(OfflineAlgorithm):
     :param weight_decay: policy Adam weight decay
     :param n_model_states: draws of T per expert tuple (kept for the whole run)
     :param model_state_scale: kappa, the factor on T's standard deviation when drawing model states
+    :param anchor_to_data: (Box) P's targets anchored on the observed actions: at the data the target mean is the
+        expert's a' (P's std kept); at a model state s~' it is a' + mean_P(s, a, s~') - mean_P(s, a, s'), P's change
+        from the data rather than its level (P fitted on one trajectory is a smoother, biased copy of BC)
     :param model_hidden: hidden sizes of P's and T's MLPs
     :param model_learning_rate: Adam learning rate of P and T
     :param model_batch_size: their minibatch size
@@ -136,6 +139,7 @@ class MBILC(OfflineAlgorithm):
         weight_decay: float = 0.0,
         n_model_states: int = 4,
         model_state_scale: float = 1.0,
+        anchor_to_data: bool = False,
         model_hidden: Sequence[int] = (64, 64),
         model_learning_rate: float = 1e-3,
         model_batch_size: int = 256,
@@ -164,6 +168,7 @@ class MBILC(OfflineAlgorithm):
         self.divergence = divergence
         self.n_model_states = n_model_states
         self.model_state_scale = model_state_scale
+        self.anchor_to_data = anchor_to_data
         self.model_hidden = model_hidden
         self.model_learning_rate = model_learning_rate
         self.model_batch_size = model_batch_size
@@ -194,6 +199,9 @@ class MBILC(OfflineAlgorithm):
         for name in ("n_model_states", "model_batch_size", "model_max_steps", "model_eval_every", "model_patience"):
             setattr(self, name, check_int(name, getattr(self, name), low=1))
         self.model_state_scale = check_real("model_state_scale", self.model_state_scale, low=0.0)
+        self.anchor_to_data = check_bool("anchor_to_data", self.anchor_to_data)
+        if self.anchor_to_data and discrete:
+            raise ValueError("anchor_to_data: expected False for Discrete actions (it moves a Gaussian mean), found True")
         self.model_hidden = check_sizes("model_hidden", self.model_hidden)
         self.model_learning_rate = check_real("model_learning_rate", self.model_learning_rate, low=0.0, low_open=True)
         self.model_noise_grid = check_levels("model_noise_grid", self.model_noise_grid)
@@ -289,12 +297,21 @@ class MBILC(OfflineAlgorithm):
         cache: dict[str, Any] = {"has_target": has}
         cache["data"] = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
                                                                                                d[prev[has]]) for d in data)
+        if self.anchor_to_data:  # Box: P's mean at the data moved onto the observed a' (its std kept)
+            a_next = self.expert_tuples().next_actions
+            cache["data"] = (cache["data"][0].index_copy(0, th.nonzero(has).view(-1), a_next[prev[has]].view(-1, data[0].shape[1])),
+                             cache["data"][1])
         if self.alpha_model > 0:
             generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
             k = self.n_model_states
             states = model.sample_next_states(s, a, k, self.model_state_scale, generator)
             cache["states"] = states
-            cache["model"] = model.next_action_distribution(s.repeat_interleave(k, 0), a.repeat_interleave(k, 0), states)
+            target = model.next_action_distribution(s.repeat_interleave(k, 0), a.repeat_interleave(k, 0), states)
+            if self.anchor_to_data:  # a' + (mean_P(s, a, s~') - mean_P(s, a, s')): P's change, not its level
+                a_next = self.expert_tuples().next_actions.view(len(s), -1)
+                shift = (a_next - data[0]).repeat_interleave(k, 0)
+                target = (target[0] + shift, target[1])
+            cache["model"] = target
         self._cache = cache
         return cache
 
