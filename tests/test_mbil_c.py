@@ -123,3 +123,21 @@ def test_without_balance_terms_it_is_bc():
                    seed=3).learn(200)
     for (name, a), b in zip(bc.policy.state_dict().items(), mbil_c.policy.state_dict().values()):
         th.testing.assert_close(a, b, rtol=0, atol=0, msg=name)
+
+
+def test_anchored_targets_sit_on_the_observed_actions(pendulum_data):
+    model = MBILC("MlpPolicy", "Pendulum-v1", expert_data=pendulum_data, anchor_to_data=True, model_state_scale=0.0,
+                  model_max_steps=40, seed=0)
+    model.learn(0)
+    cache, pairs, tup = model.balance_targets(), model.expert_pairs(), model.expert_tuples()
+    has = cache["has_target"]
+    th.testing.assert_close(cache["data"][0][has], pairs.actions[has])
+    # at kappa = 0 the model state is T's mean: the target is a' plus P's change from s' to that state
+    with th.no_grad():
+        p_data = model.balance_model.next_action_distribution(tup.observations, tup.actions, tup.next_observations)[0]
+        p_model = model.balance_model.next_action_distribution(tup.observations, tup.actions, cache["states"][::4])[0]
+    th.testing.assert_close(cache["model"][0][::4], tup.next_actions + p_model - p_data)
+    with pytest.raises(ValueError, match="anchor_to_data: expected False for Discrete actions"):
+        MBILC("MlpPolicy", "CartPole-v1", anchor_to_data=True)
+    with pytest.raises(ValueError, match="divergence: expected 'kl' or 'auto' for Discrete actions, found 'w2'"):
+        MBILC("MlpPolicy", "CartPole-v1", divergence="w2")
