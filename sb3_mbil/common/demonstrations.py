@@ -276,6 +276,74 @@ class Demonstrations:
             np.savez_compressed(f, **arrays)
         return path
 
+    # ------------------------------------------------------------------ Minari
+    @classmethod
+    def from_minari(cls, dataset: Any) -> Demonstrations:
+        """Demonstrations from a Minari dataset (a ``MinariDataset`` or the id of one in the local Minari store).
+
+        Minari episodes hold ``T + 1`` observations and ``T`` actions, like our trajectories; the episode
+        return is the sum of its rewards. The dataset's env need not be installed or recoverable: only the
+        stored arrays and spaces are read. Needs the ``minari`` extra.
+        """
+        minari = _import_minari()
+        if isinstance(dataset, str):
+            local = minari.list_local_datasets()
+            if dataset not in local:
+                raise ValueError(f"expert_data: expected a Minari dataset id in the local store "
+                                 f"({sorted(local)[:10]}), found {dataset!r}")
+            dataset = minari.load_dataset(dataset)
+        for name, space in (("observation_space", dataset.observation_space), ("action_space", dataset.action_space)):
+            if not isinstance(space, (spaces.Box, spaces.Discrete)):
+                raise ValueError(f"minari dataset {dataset.spec.dataset_id}: {name}: expected a Box or Discrete space, "
+                                 f"found {space}")
+        trajs = []
+        for episode in dataset.iterate_episodes():
+            rewards = np.asarray(episode.rewards, dtype=np.float64)
+            trajs.append(Trajectory(np.asarray(episode.observations), np.asarray(episode.actions),
+                                    terminated=bool(episode.terminations[-1]), truncated=bool(episode.truncations[-1]),
+                                    episode_return=float(rewards.sum())))
+        env_spec = getattr(dataset.spec, "env_spec", None)
+        metadata = {"source": f"minari:{dataset.spec.dataset_id}", "n_trajectories": len(trajs)}
+        if env_spec is not None:
+            metadata["env_id"] = env_spec.id
+        return cls(trajs, metadata)
+
+    def to_minari(self, dataset_id: str, env: Any = None, observation_space: spaces.Space | None = None,
+                  action_space: spaces.Space | None = None, **dataset_kwargs: Any) -> Any:
+        """Write these trajectories as a Minari dataset in the local store; returns the ``MinariDataset``.
+
+        ``env`` (an id, env or ``EnvSpec``; default: this data's ``env_id``) gives the spaces unless they are
+        passed. Our format keeps episode returns, not per-step rewards: each episode's return is written as
+        its last step's reward (the other steps 0), so Minari's returns equal ours. Trajectories without their
+        final observation cannot be written (Minari needs ``T + 1`` observations). Needs the ``minari`` extra.
+        """
+        minari = _import_minari()
+        from minari.data_collector import EpisodeBuffer
+
+        short = [i for i, t in enumerate(self.trajectories) if not t.has_final_observation]
+        if short:
+            raise ValueError(f"trajectories[{short[0]}]: expected T + 1 observations for Minari, found "
+                             f"{len(self.trajectories[short[0]].observations)} for {len(self.trajectories[short[0]])} actions")
+        env = env if env is not None else self.metadata.get("env_id")
+        if env is None and (observation_space is None or action_space is None):
+            raise ValueError("env: expected an env id (or observation_space and action_space), found None and no env_id "
+                             "in the metadata")
+        buffers = []
+        for i, t in enumerate(self.trajectories):
+            rewards = np.zeros(len(t), dtype=np.float64)
+            rewards[-1] = 0.0 if np.isnan(t.episode_return) else t.episode_return
+            terminations = np.zeros(len(t), dtype=bool)
+            truncations = np.zeros(len(t), dtype=bool)
+            terminations[-1], truncations[-1] = t.terminated, t.truncated
+            buffers.append(EpisodeBuffer(id=i, observations=t.observations, actions=t.actions, rewards=rewards,
+                                         terminations=terminations, truncations=truncations, infos={}))
+        kwargs = {"algorithm_name": str(self.metadata.get("source", "expert")), "author": "sb3_mbil",
+                  "author_email": "sb3_mbil@localhost", "code_permalink": "https://github.com/sb3_mbil",
+                  "description": f"expert demonstrations exported by sb3_mbil ({self.metadata.get('source', '?')})",
+                  **dataset_kwargs}
+        return minari.create_dataset_from_buffers(dataset_id=dataset_id, buffer=buffers, env=env,
+                                                  observation_space=observation_space, action_space=action_space, **kwargs)
+
     @classmethod
     def load(cls, path: str | os.PathLike) -> Demonstrations:
         path = Path(path)
@@ -408,8 +476,22 @@ def available_pools() -> list[str]:
     return sorted(p.stem for p in POOL_DIR.glob("*.npz"))
 
 
+MINARI_PREFIX = "minari:"
+
+
+def _import_minari():
+    try:
+        import minari
+    except ImportError as e:
+        raise ImportError(f"Minari datasets need the minari extra: pip install 'sb3_mbil[minari]' ({e})") from None
+    return minari
+
+
 def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
-    """Load demonstrations from a ``.npz`` file, or a shipped expert pool by env id (``"CartPole-v1"``)."""
+    """Load demonstrations from a ``.npz`` file, a shipped expert pool by env id (``"CartPole-v1"``), or a dataset
+    of the local Minari store (``"minari:<dataset id>"``)."""
+    if isinstance(path_or_name, str) and path_or_name.startswith(MINARI_PREFIX):
+        return Demonstrations.from_minari(path_or_name[len(MINARI_PREFIX):])
     path = Path(path_or_name)
     if path.is_file() or path.is_dir():
         return Demonstrations.load(path)
@@ -418,7 +500,8 @@ def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
         return Demonstrations.load(POOL_DIR / f"{name}.npz")
     if path.suffix == ".npz" or os.sep in name:
         raise FileNotFoundError(f"expert data file not found: {path}")
-    raise ValueError(f"expert_data: expected a file or a shipped pool name {available_pools()}, found {name!r}")
+    raise ValueError(f"expert_data: expected a file, a shipped pool name {available_pools()} or 'minari:<dataset id>', "
+                     f"found {name!r}")
 
 
 def as_demonstrations(
