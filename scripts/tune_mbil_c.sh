@@ -15,7 +15,7 @@ if [ "$LANE" = A ]; then
   # the model states at T's full spread hurt badly on some draws (-921 on seed 112): closer to the data
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_scale0.3.csv --overrides '{"mbil_c": {"model_state_scale": 0.3}}'
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model_wd1e-3.csv --overrides '{"mbil_c": {"alpha_model": 0.0, "weight_decay": 0.001}}'
-else
+elif [ "$LANE" = B ]; then
   TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
   COMMON="--envs Hopper-v4 --seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --local"
   # first tried with the KL divergence for Box (results/tuning/mbil_c_hopper_kl.csv, seed 100 only: 85 and 255 at the
