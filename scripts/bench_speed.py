@@ -1,8 +1,8 @@
 """An algorithm's wall time (its set-up, e.g. MBIL's flow fitting, and its updates separately) against BC's,
 on the same data, in one run.
 
-    python scripts/bench_speed.py --env LunarLander-v3 --n-trajectories 1 15 --steps 2000 --out results/speed.csv
-    python scripts/bench_speed.py --algo edm --env LunarLander-v3 --n-trajectories 1 --out results/speed_edm.csv
+    python scripts/bench_speed.py --env LunarLander-v3 --n-trajectories 1 15 --steps 2000 --out results/speed.csv --overwrite
+    python scripts/bench_speed.py --algo edm --env LunarLander-v3 --n-trajectories 1 --out results/speed_edm.csv --overwrite
 """
 
 import argparse
@@ -10,7 +10,7 @@ import csv
 import io
 
 from sb3_mbil import ALGORITHMS, load_demonstrations
-from sb3_mbil.benchmark.cli import positive_int, seed
+from sb3_mbil.benchmark.cli import check_output, positive_int, run, seed
 from sb3_mbil.benchmark.grid import git_commit
 from sb3_mbil.benchmark.results import write_text
 from sb3_mbil.speed import measure_speed
@@ -26,7 +26,9 @@ def main(argv=None):
     p.add_argument("--repeats", type=positive_int, default=3, help="interleaved timing blocks (medians reported)")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--out", default=None, help="CSV to write (whole, atomically)")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite, "--out")
     rows, commit = [], git_commit()
     for n in a.n_trajectories:
         demos = load_demonstrations(a.env).sample(n, seed=a.seed)
@@ -42,4 +44,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -4,7 +4,9 @@
         --n-trajectories 1 3 7 10 15 --seeds 0-9 --episodes 300 --csv results/classic_control.csv
 
 Ray starts locally by default; --address sends the same grid to a Ray cluster; --local runs
-without Ray. Finished rows are skipped, so rerunning resumes an interrupted grid.
+without Ray. Finished rows are skipped, so rerunning resumes an interrupted grid. Rows go to
+runs/classic_control.csv unless --csv names another file (rows are appended, never rewritten).
+Your own data: --pool my_demos.npz (or minari:<dataset id>) with one env.
 """
 
 import argparse
@@ -12,7 +14,7 @@ import json
 import logging
 
 from sb3_mbil import ALGORITHMS
-from sb3_mbil.benchmark.cli import parse_seeds, positive_int
+from sb3_mbil.benchmark.cli import parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -23,23 +25,28 @@ def main(argv=None):
     p.add_argument("--n-trajectories", nargs="+", type=positive_int, default=[1, 3, 7, 10, 15])
     p.add_argument("--seeds", type=parse_seeds, default=list(range(10)), help="e.g. 0-9 or 0,3,5")
     p.add_argument("--episodes", type=positive_int, default=300)
-    p.add_argument("--csv", default="results/classic_control.csv")
+    p.add_argument("--csv", default="runs/classic_control.csv", help="CSV the rows are appended to")
+    p.add_argument("--pool", default=None,
+                   help="draw the trajectories from this pool (.npz, shipped pool name or minari:<dataset id>) "
+                        "instead of each env's shipped pool; one env only")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
     p.add_argument("--local", action="store_true", help="run without Ray, one run after the other")
     a = p.parse_args(argv)
+    if a.pool is not None and len(a.envs) != 1:
+        raise ValueError(f"--pool: expected one env with a pool of your own, found --envs {' '.join(a.envs)}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     from sb3_mbil.benchmark.grid import make_grid
     from sb3_mbil.benchmark.runner import run_local, run_ray
 
     grid = make_grid(a.algos, a.envs, a.n_trajectories, a.seeds)
     if a.local:
-        n = run_local(grid, a.csv, a.episodes, a.overrides)
+        n = run_local(grid, a.csv, a.episodes, a.overrides, pool=a.pool)
     else:
-        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus)
+        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus, pool=a.pool)
     print(f"{n} runs done now; results in {a.csv}")
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

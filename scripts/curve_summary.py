@@ -8,7 +8,7 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 
 import argparse
 
-from sb3_mbil.benchmark.cli import positive_int
+from sb3_mbil.benchmark.cli import check_output, positive_int, run
 
 
 def main(argv=None):
@@ -20,7 +20,9 @@ def main(argv=None):
     p.add_argument("--heldout", action="store_true",
                    help="also: the return where the held-out BC loss was lowest (runs made with run_curves.py --holdout)")
     p.add_argument("--markdown", default=None, help="also write the tables here")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_output(a.markdown, a.overwrite, "--markdown")
     from sb3_mbil.benchmark.curves import curve_table, draw_table, heldout_table, paired_table, pool_experts
     from sb3_mbil.benchmark.results import read_result_rows, write_text
 
@@ -51,4 +53,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

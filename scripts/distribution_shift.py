@@ -2,7 +2,7 @@
 perturbed initial states, observation noise and action noise at 1%, 3% and 10% of the expert's per-dimension std.
 
     python scripts/distribution_shift.py --envs LunarLander-v3 --seeds 0-4 --episodes 50 \\
-        --csv results/shift.csv --markdown results/shift.md --plot results/shift.png
+        --csv results/shift.csv --markdown results/shift.md --plot results/shift.png --overwrite
     python scripts/distribution_shift.py --envs Hopper-v4 HalfCheetah-v4 --seeds 0-2 --episodes 10 --csv results/shift.csv
 
 Variants default to BC, the paper's MBIL and MBIL-C at their zoo settings; resumable (rows of one trained model are
@@ -10,9 +10,8 @@ written together).
 """
 
 import argparse
-import sys
 
-from sb3_mbil.benchmark.cli import parse_seeds, positive_int
+from sb3_mbil.benchmark.cli import check_output, parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -27,20 +26,20 @@ def main(argv=None):
     p.add_argument("--markdown", default=None)
     p.add_argument("--plot", default=None)
     p.add_argument("--report-only", action="store_true", help="only write the table and plot from the CSV")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     args = p.parse_args(argv)
+    check_output(args.markdown, args.overwrite, "--markdown")
+    check_output(args.plot, args.overwrite, "--plot")
 
     from sb3_mbil.benchmark.curves import parse_variants
     from sb3_mbil.benchmark.results import read_result_rows, write_text
     from sb3_mbil.benchmark.shift import plot_shift, run_shifts, shift_table
 
-    try:
-        variants = parse_variants(args.variants) if args.variants else {n: (n, {}) for n in ("bc", "mbil", "mbil_c")}
-        if not args.report_only:
-            run_shifts(variants, args.envs, args.seeds, args.csv, n_episodes=args.episodes,
-                       n_trajectories=args.n_trajectories, n_updates=args.updates)
-        rows = read_result_rows(args.csv)
-    except (ValueError, FileNotFoundError) as e:
-        sys.exit(f"distribution_shift.py: {e}")
+    variants = parse_variants(args.variants) if args.variants else {n: (n, {}) for n in ("bc", "mbil", "mbil_c")}
+    if not args.report_only:
+        run_shifts(variants, args.envs, args.seeds, args.csv, n_episodes=args.episodes,
+                   n_trajectories=args.n_trajectories, n_updates=args.updates)
+    rows = read_result_rows(args.csv)
     table = shift_table(rows)
     print(table)
     if args.markdown:
@@ -50,4 +49,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

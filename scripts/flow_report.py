@@ -15,7 +15,7 @@ import json
 
 import torch
 
-from sb3_mbil.benchmark.cli import positive_int, seed
+from sb3_mbil.benchmark.cli import positive_int, run, seed
 
 
 def main(argv=None):
@@ -65,4 +65,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -14,7 +14,7 @@ import sys
 
 import torch
 
-from sb3_mbil.benchmark.cli import finite_float, positive_int, seed
+from sb3_mbil.benchmark.cli import check_output, finite_float, positive_int, run, seed
 
 
 def main(argv=None):
@@ -29,7 +29,9 @@ def main(argv=None):
     parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes of the acceptance test")
     parser.add_argument("--sampled-actions", action="store_true",
                         help="record actions sampled from the expert's policy instead of its deterministic ones")
+    parser.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     args = parser.parse_args(argv)
+    check_output(args.out, args.overwrite, "--out")
     torch.set_num_threads(1)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     from sb3_mbil.experts import generate_demonstrations
@@ -44,4 +46,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -1,10 +1,11 @@
 """Figure 3 layout, a table env x N per algorithm, and normalised aggregate scores with bootstrap CIs.
 
-    python scripts/plot_results.py --csv results/classic_control.csv --out results/classic_control.png
+    python scripts/plot_results.py --csv results/classic_control.csv --out results/classic_control.png --overwrite
 """
 
 import argparse
 
+from sb3_mbil.benchmark.cli import check_output, run
 from sb3_mbil.benchmark.report import aggregate, paired, plot, read_rows, table
 
 
@@ -13,7 +14,10 @@ def main(argv=None):
     p.add_argument("--csv", default="results/classic_control.csv")
     p.add_argument("--out", default="results/classic_control.png")
     p.add_argument("--markdown", default=None, help="also write the tables to this markdown file")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite, "--out")
+    check_output(a.markdown, a.overwrite, "--markdown")
     try:
         rows = read_rows(a.csv)
     except (ValueError, FileNotFoundError) as e:
@@ -37,4 +41,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

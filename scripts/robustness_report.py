@@ -1,17 +1,20 @@
 """Bad inputs and faults against the package, classified as clean errors, unclear ones or silent acceptances.
 
-    python scripts/robustness_report.py [--markdown results/robustness.md]
+    python scripts/robustness_report.py [--markdown results/robustness.md --overwrite]
 """
 
 import argparse
 
+from sb3_mbil.benchmark.cli import check_output, run
 from sb3_mbil.benchmark.results import write_text
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--markdown", default=None, help="also write the table here")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_output(a.markdown, a.overwrite, "--markdown")
     import torch as th
 
     from sb3_mbil.benchmark.grid import git_commit
@@ -25,4 +28,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

@@ -2,9 +2,9 @@
 Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates on --episodes episodes.
 
     python scripts/run_curves.py --figure 4 --envs Hopper-v4 Walker2d-v4 --seeds 0-4 --updates 50000 \\
-        --csv results/mujoco.csv --plot results/mujoco.png
+        --csv results/mujoco.csv --plot results/mujoco.png --overwrite
     python scripts/run_curves.py --figure 5 --envs Walker2d-v4 --seeds 0-4 --updates 50000 \\
-        --csv results/ablation.csv --plot results/ablation.png
+        --csv results/ablation.csv --plot results/ablation.png --overwrite
     python scripts/run_curves.py --variants '{"mbil_a0.01": ["mbil", {"alpha": 0.01}]}' --envs Hopper-v4 \\
         --seeds 100-102 --updates 50000 --eval-every 5000 --csv results/tuning/mujoco.csv
     python scripts/run_curves.py --figure 4 --envs Hopper-v4 --pool hopper-sampled.npz --seeds 100-102 \\
@@ -13,7 +13,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 
 import argparse
 
-from sb3_mbil.benchmark.cli import fraction, parse_seeds, positive_int
+from sb3_mbil.benchmark.cli import check_output, fraction, parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -39,7 +39,10 @@ def main(argv=None):
     p.add_argument("--address", default=None, help="Ray cluster address (default: local Ray)")
     p.add_argument("--num-cpus", type=positive_int, default=None)
     p.add_argument("--local", action="store_true", help="without Ray")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_output(a.plot, a.overwrite, "--plot")
+    check_output(a.markdown, a.overwrite, "--markdown")
     from sb3_mbil import load_demonstrations
     from sb3_mbil.benchmark.curves import (
         ABLATION_VARIANTS,
@@ -88,4 +91,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    run(main)

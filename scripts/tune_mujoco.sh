@@ -2,7 +2,7 @@
 # MuJoCo tuning on seeds 100-102 (never in results/mujoco.csv, which uses seeds 0-4): one trajectory,
 # 5e4 updates, 10 episodes every 5000 updates. One CSV, resumable: a rerun skips the finished runs.
 #   bash scripts/tune_mujoco.sh
-#   python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc_norm --markdown results/tuning/MUJOCO.md
+#   python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc_norm --markdown results/tuning/MUJOCO.md --overwrite
 # Stage 1 (Hopper-v4): the weight of the balance term and a smaller learning rate for MBIL, beside BC.
 set -euo pipefail
 cd "$(dirname "$0")/.."

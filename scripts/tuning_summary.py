@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 
+from sb3_mbil.benchmark.cli import run
 from sb3_mbil.benchmark.report import RANDOM_RETURN, expert_returns, grouped, read_rows
 
 PAIRED_MIN_SEEDS = 10
@@ -52,4 +53,4 @@ def main(paths):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    run(lambda: main(sys.argv[1:]))

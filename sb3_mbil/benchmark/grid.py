@@ -49,17 +49,26 @@ def git_commit() -> str:
         return "unknown"
 
 
-def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The algorithm's settings for the env from ``zoo_hyperparams/<algo>.yml`` (the same the RL Zoo uses)."""
+#: gradient steps of a run on an env without zoo settings (the classic-control budget)
+DEFAULT_STEPS = 10_000
+
+
+def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None, fallback: bool = False) -> dict[str, Any]:
+    """The algorithm's settings for the env from ``zoo_hyperparams/<algo>.yml`` (the same the RL Zoo uses).
+
+    ``fallback``: for an env without an entry, the constructor's defaults and ``DEFAULT_STEPS`` gradient steps
+    (a user's own env and data) instead of an error.
+    """
     import yaml
 
     from sb3_mbil.zoo import DATA_KEYS, hyperparams_file
 
     with open(hyperparams_file(algo)) as f:
         table = yaml.safe_load(f)
-    if env not in table:
+    if env not in table and not fallback:
         raise ValueError(f"env: expected an entry for {env} in {hyperparams_file(algo)}, found entries {sorted(table)}")
-    settings = {k: v for k, v in table[env].items() if k not in DATA_KEYS and k != "policy"}
+    entry = table.get(env, {"n_timesteps": DEFAULT_STEPS})
+    settings = {k: v for k, v in entry.items() if k not in DATA_KEYS and k != "policy"}
     settings.update(overrides or {})
     if isinstance(settings.get("policy_kwargs"), str):
         # as rl_zoo3 reads it ("dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"), with th and nn in scope
@@ -70,10 +79,12 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None)
 
 
 def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]] | None = None, commit: str | None = None,
-            n_eval_envs: int = 20) -> dict[str, Any]:
+            n_eval_envs: int = 20, pool: str | None = None) -> dict[str, Any]:
     """Train and evaluate one (algo, env, N, seed); returns the result row.
 
     ``overrides``: per algorithm, settings that replace the tuned ones (``{"mbil": {"alpha": 0.1}}``).
+    ``pool``: draw the trajectories from this pool (a ``.npz`` path, a shipped pool name or ``minari:<id>``)
+    instead of the env's shipped pool; then an env without zoo settings runs with the constructor's defaults.
     """
     import torch as th
 
@@ -81,9 +92,9 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     from sb3_mbil.common.evaluation import evaluate
 
     th.set_num_threads(1)
-    settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo))
+    settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
-    demos = load_demonstrations(run.env).sample(run.n_trajectories, seed=run.seed)
+    demos = load_demonstrations(pool or run.env).sample(run.n_trajectories, seed=run.seed)
     t0 = time.perf_counter()
     model = ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     model.learn(steps)
@@ -107,7 +118,7 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
         "train_seconds": round(train_seconds, 1),
         "flow_fit_seconds": round(fit_seconds, 1),  # MBIL's flows, MBIL-C's P and T
         "gradient_steps": steps,
-        "settings": repr(sorted({**settings, "n_timesteps": steps}.items())),
+        "settings": repr(sorted({**settings, "n_timesteps": steps, **({"expert_pool": str(pool)} if pool else {})}.items())),
         "commit": commit or git_commit(),
         **diagnostics,
     }

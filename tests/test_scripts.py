@@ -1,0 +1,74 @@
+"""The command lines on a user's own data: any pool and env, one-line errors, the extra to install, committed
+files left alone unless --overwrite."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from sb3_mbil import Demonstrations, Trajectory
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def script(*args, env=None, timeout=300):
+    import os
+
+    return subprocess.run([sys.executable, *args], cwd=REPO, capture_output=True, text=True, timeout=timeout,
+                          env={**os.environ, **(env or {})})
+
+
+def pendulum_pool(path):
+    """A user's own demonstrations: a hand-written Pendulum-v1 controller, saved as .npz."""
+    env, trajs = gym.make("Pendulum-v1"), []
+    for ep in range(3):
+        obs, _ = env.reset(seed=ep)
+        observations, actions, ret, done = [obs], [], 0.0, False
+        while not done:
+            a = np.clip([-(10.0 * np.arctan2(obs[1], obs[0]) + 2.0 * obs[2])], -2.0, 2.0).astype(np.float32)
+            obs, r, terminated, truncated, _ = env.step(a)
+            observations.append(obs), actions.append(a)
+            ret, done = ret + r, terminated or truncated
+        trajs.append(Trajectory(np.array(observations), np.array(actions), terminated, truncated, ret))
+    Demonstrations(trajs, {"env_id": "Pendulum-v1", "source": "hand-written controller"}).save(path)
+    return path
+
+
+def test_compare_on_own_data_and_an_env_without_zoo_settings(tmp_path):
+    pool = pendulum_pool(tmp_path / "mine.npz")
+    out = script("scripts/compare.py", "--env", "Pendulum-v1", "--pool", str(pool), "--algos", "bc", "mbil_c",
+                 "--steps", "30", "--eval-episodes", "2")
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert f"mean of the pool {pool}" in out.stdout and "mbil_c" in out.stdout
+
+
+def test_errors_are_one_line(tmp_path):
+    missing = script("scripts/compare.py", "--env", "CartPole-v1", "--pool", str(tmp_path / "nope.npz"), "--steps", "5")
+    assert missing.returncode == 1 and "Traceback" not in missing.stderr
+    assert missing.stderr.strip() == f"compare.py: expert data file not found: {tmp_path / 'nope.npz'}"
+    two = script("scripts/benchmark.py", "--envs", "CartPole-v1", "Acrobot-v1", "--pool", "x.npz", "--local")
+    assert two.returncode == 1 and two.stderr.strip().startswith("benchmark.py: --pool: expected one env")
+
+
+def test_a_missing_extra_is_named(tmp_path):
+    fake = tmp_path / "site" / "ray"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ModuleNotFoundError(\"No module named 'ray'\", name='ray')\n")
+    out = script("scripts/benchmark.py", "--algos", "bc", "--envs", "CartPole-v1", "--n-trajectories", "1", "--seeds",
+                 "0", "--csv", str(tmp_path / "r.csv"), env={"PYTHONPATH": str(tmp_path / "site")})
+    assert out.returncode == 1 and "Traceback" not in out.stderr
+    assert "benchmark.py: needs ray: pip install 'sb3_mbil[benchmark]'" in out.stderr
+
+
+def test_committed_files_are_replaced_only_with_overwrite(tmp_path):
+    committed = "results/classic_control.png"
+    before = (REPO / committed).read_bytes()
+    out = script("scripts/plot_results.py", "--csv", "results/classic_control.csv", "--out", committed)
+    assert out.returncode == 1
+    assert out.stderr.strip() == f"plot_results.py: --out: {committed} is a committed file; pass --overwrite to replace it"
+    assert (REPO / committed).read_bytes() == before
+    fresh = script("scripts/plot_results.py", "--csv", "results/classic_control.csv", "--out", str(tmp_path / "p.png"))
+    assert fresh.returncode == 0, fresh.stderr[-2000:]
+    assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
