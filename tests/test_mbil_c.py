@@ -126,7 +126,7 @@ def test_without_balance_terms_it_is_bc():
 
 
 def test_anchored_targets_sit_on_the_observed_actions(pendulum_data):
-    model = MBILC("MlpPolicy", "Pendulum-v1", expert_data=pendulum_data, anchor_to_data=True, model_state_scale=0.0,
+    model = MBILC("MlpPolicy", "Pendulum-v1", expert_data=pendulum_data, alpha_model=1.0, model_state_scale=0.0,
                   model_max_steps=40, seed=0)
     model.learn(0)
     cache, pairs, tup = model.balance_targets(), model.expert_pairs(), model.expert_tuples()
