@@ -18,8 +18,9 @@ if [ "$LANE" = A ]; then
 elif [ "$LANE" = B ]; then
   TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
   COMMON="--envs Hopper-v4 --seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --local"
-  # first tried with the KL divergence for Box (results/tuning/mbil_c_hopper_kl.csv, seed 100 only: 85 and 255 at the
-  # end against BC's 2853): KL weighs the gap to P's mean by 1 / std^2; the squared 2-Wasserstein distance is the default
+  # first tried with the KL divergence for Box (results/tuning/mbil_c_hopper_kl.csv, seed 100 only, its variants renamed
+  # mbil_c_kl_* in that file: 85 and 255 at the end against BC's 2853): KL weighs the gap to P's mean by 1 / std^2; the
+  # squared 2-Wasserstein distance is the default
   python scripts/run_curves.py $COMMON --csv results/tuning/mbil_c_hopper.csv --variants "{
     \"mbil_c_tanh\": [\"mbil_c\", {$TANH}], \"mbil_c_tanh_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, $TANH}]}"
 fi
