@@ -4,7 +4,12 @@
         --out sb3_mbil/data/CartPole-v1.npz
 
 --source hub: the RL Zoo's agent on the Hugging Face Hub (falls back to zoo when unreachable);
---source zoo: train it locally with rl_zoo3's own hyperparameters; or a path to a saved model.
+--source zoo: train it locally with rl_zoo3's own hyperparameters; or a path to a saved model;
+--source controller: the env's hand-written controller (sb3_mbil.experts.controllers; Pendulum-v1), an expert
+that is not an RL agent:
+
+    python scripts/generate_expert_data.py --env Pendulum-v1 --n-trajectories 100 --source controller \
+        --out runs/pendulum_controller.npz
 """
 
 import argparse
@@ -21,7 +26,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", required=True, help="gymnasium env id")
     parser.add_argument("--n-trajectories", type=positive_int, required=True)
-    parser.add_argument("--source", default="hub", help="hub | zoo | PATH_TO_MODEL.zip")
+    parser.add_argument("--source", default="hub", help="hub | zoo | controller | PATH_TO_MODEL.zip")
     parser.add_argument("--seed", type=seed, default=0, help="episode i is reset with seed + i; zoo training seed")
     parser.add_argument("--out", required=True, help="output .npz (written atomically)")
     parser.add_argument("--algo", default=None, help="RL Zoo algorithm of the expert (default: the paper's for the env)")
@@ -36,6 +41,15 @@ def main(argv=None):
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     from sb3_mbil.experts import generate_demonstrations
 
+    if args.source == "controller":
+        from sb3_mbil.experts.controllers import controller_demonstrations
+
+        demos = controller_demonstrations(args.env, args.n_trajectories, args.seed)
+        path = demos.save(args.out)
+        r = demos.episode_returns
+        print(f"controller {demos.metadata['source']}: return {r.mean():.1f} +- {r.std():.1f} over {len(r)} "
+              f"trajectories; wrote {path}")
+        return
     demos, path = generate_demonstrations(
         args.env, args.n_trajectories, args.source, args.seed, args.out, args.algo, args.min_return, args.eval_episodes,
         sampled_actions=args.sampled_actions, command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),

@@ -5,10 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import gymnasium as gym
-import numpy as np
-
-from sb3_mbil import Demonstrations, Trajectory
+from sb3_mbil import Demonstrations
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -21,18 +18,12 @@ def script(*args, env=None, timeout=300):
 
 
 def pendulum_pool(path):
-    """A user's own demonstrations: a hand-written Pendulum-v1 controller, saved as .npz."""
-    env, trajs = gym.make("Pendulum-v1"), []
-    for ep in range(3):
-        obs, _ = env.reset(seed=ep)
-        observations, actions, ret, done = [obs], [], 0.0, False
-        while not done:
-            a = np.clip([-(10.0 * np.arctan2(obs[1], obs[0]) + 2.0 * obs[2])], -2.0, 2.0).astype(np.float32)
-            obs, r, terminated, truncated, _ = env.step(a)
-            observations.append(obs), actions.append(a)
-            ret, done = ret + r, terminated or truncated
-        trajs.append(Trajectory(np.array(observations), np.array(actions), terminated, truncated, ret))
-    Demonstrations(trajs, {"env_id": "Pendulum-v1", "source": "hand-written controller"}).save(path)
+    """A user's own demonstrations: a hand-written Pendulum-v1 controller, saved as .npz by the script."""
+    out = script("scripts/generate_expert_data.py", "--env", "Pendulum-v1", "--n-trajectories", "3", "--source",
+                 "controller", "--out", str(path))
+    assert out.returncode == 0, out.stderr[-2000:]
+    demos = Demonstrations.load(path)
+    assert demos.metadata["source"] == "controller:pendulum_controller" and -400 < demos.episode_returns.mean() < -50
     return path
 
 
