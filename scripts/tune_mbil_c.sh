@@ -10,10 +10,10 @@ cd "$(dirname "$0")/.."
 LANE=${1:-A}
 if [ "$LANE" = A ]; then
   LL="--envs LunarLander-v3 --n-trajectories 1 --seeds 100-114 --episodes 100 --local"
-  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_default.csv
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k1.csv
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model.csv --overrides '{"mbil_c": {"alpha_model": 0.0}}'
   # the model states at T's full spread hurt badly on some draws (-921 on seed 112): closer to the data
-  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_scale0.3.csv --overrides '{"mbil_c": {"model_state_scale": 0.3}}'
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k0.3.csv --overrides '{"mbil_c": {"model_state_scale": 0.3}}'
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model_wd1e-3.csv --overrides '{"mbil_c": {"alpha_model": 0.0, "weight_decay": 0.001}}'
 elif [ "$LANE" = B ]; then
   TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
