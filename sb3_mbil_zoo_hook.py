@@ -3,13 +3,14 @@
 rl_zoo3 fixes ``--algo`` choices from ``rl_zoo3.utils.ALGOS`` before it imports any user module, and
 has no plugin entry point. This module, standard library only, installs an import hook that waits
 for ``rl_zoo3.utils``, ``rl_zoo3.hyperparams_opt`` and ``rl_zoo3.exp_manager`` to be imported and then
-lets ``sb3_mbil.zoo`` add our algorithms, samplers and default hyperparameter files. Nothing else
+lets ``sb3_mbil.zoo`` add our algorithms, samplers and default hyperparameter files (and, after
+``huggingface_sb3.push_to_hub``, the expert data in the Hub model card and the name rl_zoo3.push_to_hub imports). Nothing else
 is imported at start-up: an interpreter that never imports rl_zoo3 never imports torch because of us.
 """
 
 import sys
 
-_TARGETS = ("rl_zoo3.utils", "rl_zoo3.hyperparams_opt", "rl_zoo3.exp_manager")
+_TARGETS = ("rl_zoo3.utils", "rl_zoo3.hyperparams_opt", "rl_zoo3.exp_manager", "huggingface_sb3.push_to_hub")
 
 
 class _PatchingLoader:

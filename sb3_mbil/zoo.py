@@ -9,9 +9,11 @@ rl_zoo3 and no wrapper command::
     python -m rl_zoo3.train --algo mbil --env CartPole-v1 --optimize --storage URL --study-name NAME
 
 Hyperparameter files (``zoo_hyperparams/<algo>.yml``) have, besides constructor arguments and
-``n_timesteps`` (gradient steps), two keys of ours: ``expert_pool`` (a shipped pool name or a
-``.npz`` path) and ``n_expert_trajectories`` (how many trajectories to draw with the run's seed;
-default 1). Every algorithm in :data:`sb3_mbil.ALGORITHMS` is registered from this one place.
+``n_timesteps`` (gradient steps), keys of ours: ``expert_pool`` (a shipped pool name, a ``.npz`` path or
+``minari:<dataset id>``), ``n_expert_trajectories`` (how many trajectories to draw; default 1) and
+``expert_seed`` (the seed of the draw; default: the run's seed, written to the run's ``config.yml`` so that
+``python -m rl_zoo3.push_to_hub`` names pool, N and seed in the model card). Every algorithm in
+:data:`sb3_mbil.ALGORITHMS` is registered from this one place.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-DATA_KEYS = ("expert_pool", "n_expert_trajectories")
+DATA_KEYS = ("expert_pool", "n_expert_trajectories", "expert_seed")
 ZOO_DEFAULT_EVAL_FREQ = 25000  # rl_zoo3.train's --eval-freq default
 
 NET_ARCH = {"small": [64, 64], "medium": [256, 256]}
@@ -165,6 +167,57 @@ def patch(name: str, module) -> None:
             module.HYPERPARAMS_CONVERTER[algo] = CONVERTERS[algo]
     elif name == "rl_zoo3.exp_manager":
         _patch_experiment_manager(module.ExperimentManager)
+    elif name == "huggingface_sb3.push_to_hub":
+        _patch_hub(module)
+
+
+# ---------------------------------------------------------------------- the Hugging Face Hub
+_PACKAGING: list = []  # the model huggingface_sb3.package_to_hub is packaging (a stack, for its model card)
+
+
+def expert_card_section(info: dict[str, Any] | None) -> str:
+    """The model card's account of the expert data a model of ours learned from (``model.expert_info``)."""
+    if not info:
+        return ""
+    indices = info.get("pool_indices")
+    drawn = (f"drawn with seed {info['draw_seed']} from the pool `{info.get('pool')}`"
+             if info.get("draw_seed") is not None else f"from `{info.get('pool')}`")
+    return (f"\n## Expert data (sb3_mbil)\n\nTrained strictly offline on {info.get('n_trajectories')} expert "
+            f"trajectories ({info.get('n_steps')} steps) of {info.get('env_id')}, {drawn} (expert: "
+            f"{info.get('expert')}){f'; pool indices {indices}' if indices else ''}.\n\n"
+            f"- expert pool: `{info.get('pool')}`\n- N (expert trajectories): {info.get('n_trajectories')}\n"
+            f"- seed of the draw: {info.get('draw_seed')}\n")
+
+
+def _patch_hub(module) -> None:
+    """huggingface_sb3.push_to_hub: the name rl_zoo3.push_to_hub imports (``generate_metadata``, which
+    sb3-team-hf-integration 3.x renamed ``_generate_metadata``), and the expert data in the model card that
+    ``package_to_hub`` writes for a model of ours."""
+    if getattr(module, "_sb3_mbil_patched", False):
+        return
+    module._sb3_mbil_patched = True
+    if not hasattr(module, "generate_metadata") and hasattr(module, "_generate_metadata"):
+        module.generate_metadata = module._generate_metadata
+    package, card = module.package_to_hub, module._generate_model_card
+
+    @functools.wraps(package)
+    def package_to_hub(model, *args, **kwargs):
+        _PACKAGING.append(model)
+        try:
+            return package(model, *args, **kwargs)
+        finally:
+            _PACKAGING.pop()
+
+    @functools.wraps(card)
+    def _generate_model_card(*args, **kwargs):
+        model_card = card(*args, **kwargs)
+        info = getattr(_PACKAGING[-1], "expert_info", None) if _PACKAGING else None
+        if info:
+            model_card.text += expert_card_section(info)
+        return model_card
+
+    module.package_to_hub = package_to_hub
+    module._generate_model_card = _generate_model_card
 
 
 def _exit(message: str):
@@ -201,6 +254,10 @@ def _patch_experiment_manager(cls) -> None:
                     f"no hyperparameters for {self.algo} on {self.env_name.gym_id} in {self.config} "
                     f"(entries: {', '.join(sorted(table))}); add one, or pass --conf-file with yours"
                 )
+            hyperparams, saved = read(self)
+            # the draw's seed (the run's unless given) goes into config.yml: push_to_hub's card shows it
+            saved["expert_seed"] = hyperparams.setdefault("expert_seed", self.seed)
+            return hyperparams, saved
         return read(self)
 
     @functools.wraps(preprocess)
@@ -216,7 +273,7 @@ def _patch_experiment_manager(cls) -> None:
             # the zoo's default would never evaluate our (short) runs: evaluate 10 times instead
             self.eval_freq = max(self.n_timesteps // 10, 1)
         if "expert_data" not in result[0]:
-            result[0]["expert_data"] = _expert_data(self.env_name.gym_id, data_spec, self.seed)
+            result[0]["expert_data"] = _expert_data(self.env_name.gym_id, data_spec, data_spec.get("expert_seed", self.seed))
         return result
 
     def _one_line(method):

@@ -42,7 +42,7 @@ def test_save_load_roundtrip(tmp_path):
     d = two_trajectories()
     path = d.save(tmp_path / "demo.npz")
     e = load_demonstrations(path)
-    assert len(e) == 2 and e.metadata == d.metadata
+    assert len(e) == 2 and e.metadata == {**d.metadata, "pool": str(path)}  # loading records where it came from
     for x, y in zip(d, e):
         np.testing.assert_array_equal(x.observations, y.observations)
         np.testing.assert_array_equal(x.actions, y.actions)

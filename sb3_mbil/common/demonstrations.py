@@ -164,6 +164,20 @@ class Demonstrations:
         meta["sampled"] = {"n": int(n), "seed": seed, "indices": [int(i) for i in idx]}
         return Demonstrations([self.trajectories[i] for i in idx], meta)
 
+    def provenance(self) -> dict[str, Any]:
+        """Where these trajectories came from, in plain types (saved with a model; named in its Hub model card)."""
+        meta, sampled = self.metadata, self.metadata.get("sampled") or {}
+        expert = meta.get("expert")
+        return {
+            "env_id": meta.get("env_id"),
+            "pool": meta.get("pool"),
+            "expert": (expert.get("source") if isinstance(expert, dict) else None) or meta.get("source"),
+            "n_trajectories": len(self),
+            "n_steps": self.n_steps,
+            "draw_seed": sampled.get("seed"),
+            "pool_indices": sampled.get("indices"),
+        }
+
     # ------------------------------------------------------------------ views
     def pairs(self) -> dict[str, np.ndarray]:
         """All ``(s, a)`` pairs: ``observations`` and ``actions``."""
@@ -491,13 +505,19 @@ def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
     """Load demonstrations from a ``.npz`` file, a shipped expert pool by env id (``"CartPole-v1"``), or a dataset
     of the local Minari store (``"minari:<dataset id>"``)."""
     if isinstance(path_or_name, str) and path_or_name.startswith(MINARI_PREFIX):
-        return Demonstrations.from_minari(path_or_name[len(MINARI_PREFIX):])
+        demos = Demonstrations.from_minari(path_or_name[len(MINARI_PREFIX):])
+        demos.metadata["pool"] = path_or_name
+        return demos
     path = Path(path_or_name)
     if path.is_file() or path.is_dir():
-        return Demonstrations.load(path)
+        demos = Demonstrations.load(path)
+        demos.metadata["pool"] = str(path_or_name)
+        return demos
     name = str(path_or_name)
     if name in available_pools():
-        return Demonstrations.load(POOL_DIR / f"{name}.npz")
+        demos = Demonstrations.load(POOL_DIR / f"{name}.npz")
+        demos.metadata["pool"] = name
+        return demos
     if path.suffix == ".npz" or os.sep in name:
         raise FileNotFoundError(f"expert data file not found: {path}")
     raise ValueError(f"expert_data: expected a file, a shipped pool name {available_pools()} or 'minari:<dataset id>', "

@@ -120,6 +120,8 @@ class OfflineAlgorithm(BaseAlgorithm):
         self.batch_size = batch_size
         self.weight_decay = weight_decay
         self._demonstrations: Demonstrations | None = None
+        #: where the expert data came from (pool, number of trajectories, the seed of the draw); saved in the zip
+        self.expert_info: dict[str, Any] | None = None
         self._on_new_data()
         if expert_data is not None and env is not None:
             self.demonstrations()  # bad data is refused when it is given, not at the first learn
@@ -246,6 +248,7 @@ class OfflineAlgorithm(BaseAlgorithm):
                 warnings.warn(f"expert_data: recorded on {recorded} (its metadata), used with {env_id}: the spaces "
                               "match, the dynamics may not", UserWarning, stacklevel=2)
             self._demonstrations = demos
+            self.expert_info = demos.provenance()
         return self._demonstrations
 
     def _env_id(self) -> str | None:
