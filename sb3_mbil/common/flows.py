@@ -30,6 +30,7 @@ from functools import partial
 import numpy as np
 import torch as th
 import torch.distributions as _torch_dist
+from gymnasium import spaces
 from torch import nn
 
 _validate_args = _torch_dist.Distribution._validate_args
@@ -124,19 +125,51 @@ class ConditionalFlow(nn.Module):
         return self.flow(context).log_prob(z) + self.x_norm.log_abs_det()
 
 
+def mlp(n_in: int, hidden: Sequence[int], n_out: int) -> nn.Sequential:
+    """ReLU MLP ``n_in -> hidden... -> n_out`` (linear output)."""
+    layers: list[nn.Module] = []
+    last = n_in
+    for h in hidden:
+        layers += [nn.Linear(last, h), nn.ReLU()]
+        last = h
+    layers.append(nn.Linear(last, n_out))
+    return nn.Sequential(*layers)
+
+
+class TupleInputs(nn.Module):
+    """How the density models of a tuple (s, a, s', a') see it: actions as flat features (one-hot for Discrete),
+    T's (x, c) = (s', (s, a)) and the next-action model's (x, c) = (a', (s, a, s'))."""
+
+    def __init__(self, obs_dim: int, action_space: spaces.Space):
+        super().__init__()
+        self.obs_dim = obs_dim
+        self.discrete = isinstance(action_space, spaces.Discrete)
+        self.n_actions = int(action_space.n) if self.discrete else 0
+        self.act_in = self.n_actions if self.discrete else int(math.prod(action_space.shape))
+
+    def encode_action(self, a: th.Tensor) -> th.Tensor:
+        """Actions as flat float features (one-hot for Discrete)."""
+        if self.discrete:
+            return nn.functional.one_hot(a.long().view(-1), self.n_actions).float()
+        return a.float().view(len(a), -1)
+
+    def transition_inputs(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """(x, c) of T: x = s', c = (s, a)."""
+        return s_next, th.cat([s, self.encode_action(a)], dim=1)
+
+    def next_action_inputs(self, s, a, s_next, a_next) -> tuple[th.Tensor, th.Tensor]:
+        """(x, c) of P(a' | s, a, s'): x = a', c = (s, a, s')."""
+        x = a_next.long().view(-1) if self.discrete else a_next.float().view(len(a_next), -1)
+        return x, th.cat([s, self.encode_action(a), s_next], dim=1)
+
+
 class ConditionalCategorical(nn.Module):
     """log q(a | c) for a in {0, ..., n-1}: an MLP with a softmax output (a probability mass)."""
 
     def __init__(self, n: int, c_dim: int, hidden: Sequence[int] = (64, 64)):
         super().__init__()
         self.c_norm = Standardizer(c_dim)
-        layers: list[nn.Module] = []
-        last = c_dim
-        for h in hidden:
-            layers += [nn.Linear(last, h), nn.ReLU()]
-            last = h
-        layers.append(nn.Linear(last, n))
-        self.net = nn.Sequential(*layers)
+        self.net = mlp(c_dim, hidden, n)
 
     def fit_statistics(self, x: th.Tensor, c: th.Tensor) -> None:
         self.c_norm.fit(c)
@@ -163,13 +196,7 @@ class ConditionalGaussian(nn.Module):
         super().__init__()
         self.x_norm = Standardizer(x_dim)
         self.c_norm = Standardizer(c_dim)
-        layers: list[nn.Module] = []
-        last = c_dim
-        for h in hidden:
-            layers += [nn.Linear(last, h), nn.ReLU()]
-            last = h
-        layers.append(nn.Linear(last, 2 * x_dim))
-        self.net = nn.Sequential(*layers)
+        self.net = mlp(c_dim, hidden, 2 * x_dim)
 
     def fit_statistics(self, x: th.Tensor, c: th.Tensor) -> None:
         self.x_norm.fit(x)

@@ -296,11 +296,23 @@ class OfflineAlgorithm(BaseAlgorithm):
                     f"(s, a, s', a')), found {len(short)} shorter ones, e.g. trajectory {short[0]} with "
                     f"{len(demos[short[0]])} step"
                 )
-            t = demos.tuples()
-            self._expert_cache[TupleSamples] = TupleSamples(
-                self._to_tensor(t["observations"], "obs"), self._to_tensor(t["actions"], "act"),
-                self._to_tensor(t["next_observations"], "obs"), self._to_tensor(t["next_actions"], "act"))
+            self._expert_cache[TupleSamples] = self.tuple_tensors(demos)
         return self._expert_cache[TupleSamples]
+
+    def tuple_tensors(self, expert_data: ExpertData) -> TupleSamples:
+        """The consecutive (s, a, s', a') of any expert data (e.g. held-out trajectories) as tensors."""
+        t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
+        return TupleSamples(self._to_tensor(t["observations"], "obs"), self._to_tensor(t["actions"], "act"),
+                            self._to_tensor(t["next_observations"], "obs"), self._to_tensor(t["next_actions"], "act"))
+
+    def model_fit_split(self, fraction: float) -> tuple[int, np.ndarray, np.ndarray]:
+        """(seed, train indices, held-out indices) of the expert tuples for fitting a density model: whole blocks of
+        consecutive steps held out; the seed is the model's (drawn once when it has none)."""
+        from sb3_mbil.common.flows import block_split
+
+        seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
+        train_idx, val_idx = block_split(self.demonstrations().tuples()["trajectory_index"], fraction, seed)
+        return seed, train_idx, val_idx
 
     def sample(self, samples: Samples) -> Samples:
         """A minibatch of ``batch_size`` rows drawn with replacement."""

@@ -22,8 +22,8 @@ import numpy as np
 import torch as th
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
-from sb3_mbil.common.demonstrations import ExpertData, as_demonstrations
-from sb3_mbil.common.flows import EVAL_CHUNK, block_split, fit_conditional_density
+from sb3_mbil.common.demonstrations import ExpertData
+from sb3_mbil.common.flows import EVAL_CHUNK, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_int, check_levels, check_real, check_sizes
@@ -193,8 +193,7 @@ class MBIL(OfflineAlgorithm):
         held-out log-likelihoods (nats per tuple, raw units).
         """
         tup = self.expert_tuples()
-        seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
-        train_idx, val_idx = block_split(self.demonstrations().tuples()["trajectory_index"], self.validation_fraction, seed)
+        seed, train_idx, val_idx = self.model_fit_split(self.validation_fraction)
         common = dict(
             noise_grid=self.noise_grid,
             learning_rate=self.flow_learning_rate,
@@ -258,9 +257,7 @@ class MBIL(OfflineAlgorithm):
         """The behaviour-cloning loss and the balance loss E[(target - log pi(a'|s'))^2] on (held-out) expert data."""
         losses = super().validation_losses(expert_data)
         if bool(self.flows.fitted):
-            t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
-            s, a, s_next, a_next = (self._to_tensor(t[k], kind) for k, kind in (
-                ("observations", "obs"), ("actions", "act"), ("next_observations", "obs"), ("next_actions", "act")))
+            s, a, s_next, a_next = self.tuple_tensors(expert_data)
             residual = self.balance_target(s, a, s_next, a_next) - self.policy.log_prob(s_next, a_next)
             losses["balance_loss"] = float(residual.pow(2).mean())
         return losses

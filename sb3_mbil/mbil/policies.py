@@ -25,20 +25,19 @@ two estimates of the same density in the target (tens of nats with one trajector
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import torch as th
 from gymnasium import spaces
 from torch import nn
 
-from sb3_mbil.common.flows import ConditionalCategorical, ConditionalFlow
+from sb3_mbil.common.flows import ConditionalCategorical, ConditionalFlow, TupleInputs
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 
 __all__ = ["ImitationPolicy", "MarkovBalanceModel", "MlpPolicy"]
 
 
-class MarkovBalanceModel(nn.Module):
+class MarkovBalanceModel(TupleInputs):
     """T_psi(s' | s, a) and P_eta(a' | s, a, s'); P = T * P_eta.
 
     :param obs_dim: flat observation dimension
@@ -58,11 +57,7 @@ class MarkovBalanceModel(nn.Module):
         embed_dim: int = 32,
         scale_limit: float = 3.0,
     ):
-        super().__init__()
-        self.discrete = isinstance(action_space, spaces.Discrete)
-        self.n_actions = int(action_space.n) if self.discrete else 0
-        act_in = self.n_actions if self.discrete else int(math.prod(action_space.shape))
-        self._dims = (obs_dim, act_in)
+        super().__init__(obs_dim, action_space)
         self._flow_args = dict(transforms=transforms, hidden=tuple(hidden), embed_dim=embed_dim, scale_limit=scale_limit)
         self.transition = self.make_transition()
         self.next_action = self.make_next_action()
@@ -70,30 +65,13 @@ class MarkovBalanceModel(nn.Module):
 
     def make_transition(self) -> ConditionalFlow:
         """A fresh T_psi(s' | s, a)."""
-        obs_dim, act_in = self._dims
-        return ConditionalFlow(obs_dim, obs_dim + act_in, **self._flow_args)
+        return ConditionalFlow(self.obs_dim, self.obs_dim + self.act_in, **self._flow_args)
 
     def make_next_action(self) -> nn.Module:
         """A fresh P_eta(a' | s, a, s')."""
-        obs_dim, act_in = self._dims
         if self.discrete:
-            return ConditionalCategorical(self.n_actions, 2 * obs_dim + act_in, self._flow_args["hidden"])
-        return ConditionalFlow(act_in, 2 * obs_dim + act_in, **self._flow_args)
-
-    def encode_action(self, a: th.Tensor) -> th.Tensor:
-        """Actions as flat float features (one-hot for Discrete)."""
-        if self.discrete:
-            return nn.functional.one_hot(a.long().view(-1), self.n_actions).float()
-        return a.float().view(len(a), -1)
-
-    def transition_inputs(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        """(x, c) of T: x = s', c = (s, a)."""
-        return s_next, th.cat([s, self.encode_action(a)], dim=1)
-
-    def next_action_inputs(self, s, a, s_next, a_next) -> tuple[th.Tensor, th.Tensor]:
-        """(x, c) of P_eta: x = a', c = (s, a, s')."""
-        x = a_next.long().view(-1) if self.discrete else a_next.float().view(len(a_next), -1)
-        return x, th.cat([s, self.encode_action(a), s_next], dim=1)
+            return ConditionalCategorical(self.n_actions, 2 * self.obs_dim + self.act_in, self._flow_args["hidden"])
+        return ConditionalFlow(self.act_in, 2 * self.obs_dim + self.act_in, **self._flow_args)
 
     def log_t(self, s, a, s_next) -> th.Tensor:
         """log T(s' | s, a), a density in raw observation units."""

@@ -45,8 +45,8 @@ import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
-from sb3_mbil.common.demonstrations import ExpertData, as_demonstrations
-from sb3_mbil.common.flows import block_split, fit_conditional_density
+from sb3_mbil.common.demonstrations import ExpertData
+from sb3_mbil.common.flows import fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
@@ -247,8 +247,7 @@ class MBILC(OfflineAlgorithm):
         step counts and held-out log-likelihoods (nats per tuple, raw units).
         """
         tup = self.expert_tuples()
-        seed = int(self.seed) if self.seed is not None else int(th.randint(0, 2**31 - 1, ()).item())
-        train_idx, val_idx = block_split(self.demonstrations().tuples()["trajectory_index"], self.validation_fraction, seed)
+        seed, train_idx, val_idx = self.model_fit_split(self.validation_fraction)
         common = dict(noise_grid=self.model_noise_grid, learning_rate=self.model_learning_rate,
                       batch_size=self.model_batch_size, max_steps=self.model_max_steps, eval_every=self.model_eval_every,
                       patience=self.model_patience, refit=self.model_refit, seed=seed)
@@ -331,9 +330,7 @@ class MBILC(OfflineAlgorithm):
         """The behaviour-cloning loss and the balance loss E[D(P(.|s,a,s') || pi(.|s'))] on (held-out) expert data."""
         losses = super().validation_losses(expert_data)
         if bool(self.balance_model.fitted):
-            t = as_demonstrations(expert_data, self.observation_space, self.action_space).tuples()
-            s, a, s_next = (self._to_tensor(t[k], kind) for k, kind in (
-                ("observations", "obs"), ("actions", "act"), ("next_observations", "obs")))
+            s, a, s_next, _ = self.tuple_tensors(expert_data)
             target = self.balance_model.next_action_distribution(s, a, s_next)
             losses["balance_loss"] = float(balance_divergence(self._divergence, self.policy, target,
                                                               self.policy.heads(s_next)).mean())

@@ -11,20 +11,19 @@ log-density at the data, and a small MLP is fitted in a fraction of a second.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import torch as th
 from gymnasium import spaces
 from torch import nn
 
-from sb3_mbil.common.flows import ConditionalCategorical, ConditionalGaussian
+from sb3_mbil.common.flows import ConditionalCategorical, ConditionalGaussian, TupleInputs
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 
 __all__ = ["BalanceModel", "ImitationPolicy", "MlpPolicy"]
 
 
-class BalanceModel(nn.Module):
+class BalanceModel(TupleInputs):
     """P_eta(a' | s, a, s') and T_psi(s' | s, a).
 
     :param obs_dim: flat observation dimension
@@ -33,11 +32,7 @@ class BalanceModel(nn.Module):
     """
 
     def __init__(self, obs_dim: int, action_space: spaces.Space, hidden: Sequence[int] = (64, 64)):
-        super().__init__()
-        self.discrete = isinstance(action_space, spaces.Discrete)
-        self.n_actions = int(action_space.n) if self.discrete else 0
-        self.act_in = self.n_actions if self.discrete else int(math.prod(action_space.shape))
-        self.obs_dim = obs_dim
+        super().__init__(obs_dim, action_space)
         self.hidden = tuple(hidden)
         self.next_action = self.make_next_action()
         self.transition = self.make_transition()
@@ -53,21 +48,6 @@ class BalanceModel(nn.Module):
     def make_transition(self) -> ConditionalGaussian:
         """A fresh T_psi(s' | s, a)."""
         return ConditionalGaussian(self.obs_dim, self.obs_dim + self.act_in, self.hidden)
-
-    def encode_action(self, a: th.Tensor) -> th.Tensor:
-        """Actions as flat float features (one-hot for Discrete)."""
-        if self.discrete:
-            return nn.functional.one_hot(a.long().view(-1), self.n_actions).float()
-        return a.float().view(len(a), -1)
-
-    def transition_inputs(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        """(x, c) of T: x = s', c = (s, a)."""
-        return s_next, th.cat([s, self.encode_action(a)], dim=1)
-
-    def next_action_inputs(self, s, a, s_next, a_next) -> tuple[th.Tensor, th.Tensor]:
-        """(x, c) of P_eta: x = a', c = (s, a, s')."""
-        x = a_next.long().view(-1) if self.discrete else a_next.float().view(len(a_next), -1)
-        return x, th.cat([s, self.encode_action(a), s_next], dim=1)
 
     @th.no_grad()
     def next_action_distribution(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor) -> tuple[th.Tensor, ...]:
