@@ -141,3 +141,23 @@ def test_anchored_targets_sit_on_the_observed_actions(pendulum_data):
         MBILC("MlpPolicy", "CartPole-v1", anchor_to_data=True)
     with pytest.raises(ValueError, match="divergence: expected 'kl' or 'auto' for Discrete actions, found 'w2'"):
         MBILC("MlpPolicy", "CartPole-v1", divergence="w2")
+
+
+def test_corrective_labels_lead_back_to_the_expert_next_state():
+    """CCIL-style labels on the linear-Gaussian MDP: the TRUE dynamics take (s~, a~) close to the expert's s', and
+    a~ differs from the expert's a (a label the data does not have)."""
+    mdp = LinearGaussianMDP()
+    model = MBILC("MlpPolicy", mdp.make_env(), expert_data=mdp.trajectories(30, 100, seed=0), alpha_model=1.0,
+                  model_labels="corrective", corrective_action_noise=1.0, seed=0)
+    model.learn(0)
+    cache, (s, a, s_next, _) = model.balance_targets(), model.expert_tuples()
+    report = model.model_report["corrective_labels"]
+    assert report["kept"] > 0.5 * report["tried"] and len(cache["states"]) == report["kept"]
+    x, actions = cache["states"].numpy().astype(np.float64), cache["model_actions"].numpy().astype(np.float64)
+    true_next = x @ mdp.A.T + actions @ mdp.B.T  # the mean of the true T
+    tuples = cache["model_tuples"].numpy()  # the expert tuple of each kept label
+    expert_next = s_next.numpy()[tuples]
+    rms = np.sqrt(((true_next - expert_next) ** 2).mean(1)) / s.numpy().std(0).mean()
+    assert np.median(rms) < 0.1
+    assert np.abs(actions - a.numpy()[tuples]).mean() > 0.1  # new actions, not the data's
+

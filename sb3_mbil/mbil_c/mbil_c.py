@@ -113,6 +113,14 @@ class MBILC(OfflineAlgorithm):
         the observed actions: at the data the target mean is the
         expert's a' (P's std kept); at a model state s~' it is a' + mean_P(s, a, s~') - mean_P(s, a, s'), P's change
         from the data rather than its level (P fitted on one trajectory is a smoother, biased copy of BC)
+    :param model_labels: what the policy is fitted to at the model states: ``"balance"`` (P's conditional at
+        s~' ~ T^kappa, the balance term above) or ``"corrective"`` (CCIL-style corrective labels, Ke et al. 2024:
+        for each expert tuple and a perturbed action a~, the state s~ from which T's mean takes a~ to the expert's
+        s', found by fixed-point iteration from s; kept where T then lands within ``corrective_tolerance`` of s'
+        (RMS in units of the expert states' std); the pair (s~, a~) is a behaviour-cloning label)
+    :param corrective_action_noise: (Box) std of a~ - a in units of the expert actions' std; Discrete: every action
+    :param corrective_tolerance: largest RMS gap |mean_T(s~, a~) - s'| / std(s) of a kept corrective label
+    :param corrective_iterations: fixed-point iterations s~ <- s~ + s' - mean_T(s~, a~), from s~ = s
     :param model_hidden: hidden sizes of P's and T's MLPs
     :param model_learning_rate: Adam learning rate of P and T
     :param model_batch_size: their minibatch size
@@ -149,6 +157,10 @@ class MBILC(OfflineAlgorithm):
         n_model_states: int = 4,
         model_state_scale: float = 1.0,
         anchor_to_data: bool | str = "auto",
+        model_labels: str = "balance",
+        corrective_action_noise: float = 0.1,
+        corrective_tolerance: float = 0.05,
+        corrective_iterations: int = 10,
         model_hidden: Sequence[int] = (64, 64),
         model_learning_rate: float = 1e-3,
         model_batch_size: int = 256,
@@ -178,6 +190,10 @@ class MBILC(OfflineAlgorithm):
         self.n_model_states = n_model_states
         self.model_state_scale = model_state_scale
         self.anchor_to_data = anchor_to_data
+        self.model_labels = model_labels
+        self.corrective_action_noise = corrective_action_noise
+        self.corrective_tolerance = corrective_tolerance
+        self.corrective_iterations = corrective_iterations
         self.model_hidden = model_hidden
         self.model_learning_rate = model_learning_rate
         self.model_batch_size = model_batch_size
@@ -214,6 +230,10 @@ class MBILC(OfflineAlgorithm):
         if self.anchor_to_data and discrete:
             raise ValueError("anchor_to_data: expected False for Discrete actions (it moves a Gaussian mean), found True")
         self.model_hidden = check_sizes("model_hidden", self.model_hidden)
+        self.model_labels = check_choice("model_labels", self.model_labels, ("balance", "corrective"))
+        self.corrective_action_noise = check_real("corrective_action_noise", self.corrective_action_noise, low=0.0)
+        self.corrective_tolerance = check_real("corrective_tolerance", self.corrective_tolerance, low=0.0, low_open=True)
+        self.corrective_iterations = check_int("corrective_iterations", self.corrective_iterations, low=1)
         self.model_learning_rate = check_real("model_learning_rate", self.model_learning_rate, low=0.0, low_open=True)
         self.model_noise_grid = check_levels("model_noise_grid", self.model_noise_grid)
         self.validation_fraction = check_real("validation_fraction", self.validation_fraction, low=0.0, high=1.0,
@@ -311,7 +331,9 @@ class MBILC(OfflineAlgorithm):
             a_next = self.expert_tuples().next_actions
             cache["data"] = (cache["data"][0].index_copy(0, th.nonzero(has).view(-1), a_next[prev[has]].view(-1, data[0].shape[1])),
                              cache["data"][1])
-        if self.alpha_model > 0:
+        if self.alpha_model > 0 and self.model_labels == "corrective":
+            cache.update(self._corrective_labels())
+        elif self.alpha_model > 0:
             generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
             k = self.n_model_states
             states = model.sample_next_states(s, a, k, self.model_state_scale, generator)
@@ -324,6 +346,36 @@ class MBILC(OfflineAlgorithm):
             cache["model"] = target
         self._cache = cache
         return cache
+
+    @th.no_grad()
+    def _corrective_labels(self) -> dict[str, Any]:
+        """CCIL-style labels (``model_labels="corrective"``): states s~ near the expert's from which T's mean takes a
+        perturbed action a~ to the expert's next state s', kept where T lands within the tolerance."""
+        s, a, s_next, _ = self.expert_tuples()
+        model = self.balance_model
+        generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
+        if model.discrete:  # every action from every expert state
+            k = model.n_actions
+            actions = th.arange(k, device=self.device).repeat(len(s))
+        else:
+            k = self.n_model_states
+            a_std = a.std(0, unbiased=False).clamp(min=1e-6)
+            noise = th.randn((len(s) * k, *a.shape[1:]), generator=generator, device=self.device)
+            low, high = (th.as_tensor(b, dtype=a.dtype, device=self.device).view(-1) for b in
+                         (self.action_space.low, self.action_space.high))
+            actions = (a.repeat_interleave(k, 0) + self.corrective_action_noise * a_std * noise).clamp(low, high)
+        target = s_next.repeat_interleave(k, 0)
+        x = s.repeat_interleave(k, 0).clone()
+        step = lambda x: model.transition.mean_std(th.cat([x, model.encode_action(actions)], dim=1))[0]  # noqa: E731
+        for _ in range(self.corrective_iterations):
+            x = x + (target - step(x))
+        s_std = s.std(0, unbiased=False).clamp(min=1e-6)
+        gap = ((step(x) - target) / s_std).pow(2).mean(1).sqrt()
+        keep = th.isfinite(gap) & (gap < self.corrective_tolerance)
+        if self.model_report is not None:
+            self.model_report["corrective_labels"] = {"kept": int(keep.sum()), "tried": len(keep),
+                                                      "median_gap": float(gap.nan_to_num(float("inf")).median())}
+        return {"states": x[keep], "model_actions": actions[keep], "model_tuples": th.nonzero(keep).view(-1) // k}
 
     @th.no_grad()
     def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
@@ -350,7 +402,7 @@ class MBILC(OfflineAlgorithm):
     def _train_step(self) -> None:
         pairs, cache = self.expert_pairs(), self.balance_targets()
         i = self._sample_indices(len(pairs.observations))
-        use_model = self.alpha_model > 0
+        use_model = self.alpha_model > 0 and len(cache["states"]) > 0
         j = self._sample_indices(len(cache["states"])) if use_model else None
         # one forward pass over the expert states s and the model states s~'
         states = th.cat([pairs.observations[i], cache["states"][j]]) if use_model else pairs.observations[i]
@@ -373,8 +425,14 @@ class MBILC(OfflineAlgorithm):
             loss = loss + self.alpha * balance
             self._record("train/balance_loss", balance)
 
+        # Corrective labels (model_labels="corrective"): L_BC(pi) on the kept (s~, a~).
+        if use_model and self.model_labels == "corrective":
+            corrective = bc_loss(self.policy, [h[n:] for h in heads], cache["model_actions"][j], self._bc_kind)
+            loss = loss + self.alpha_model * corrective
+            self._record("train/corrective_loss", corrective)
+
         # Balance at model states: D(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
-        if use_model:
+        elif use_model:
             model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in cache["model"]],
                                           [h[n:] for h in heads]).mean()
             loss = loss + self.alpha_model * model_kl
