@@ -7,13 +7,14 @@ from sb3_mbil.common.heldout import ValidationCallback, split_blocks
 from sb3_mbil.dsfn import DSFN
 from sb3_mbil.edm import EDM
 from sb3_mbil.export import export_policy
+from sb3_mbil.iq_learn import IQLearn
 from sb3_mbil.mbil import MBIL
 from sb3_mbil.mbil_c import MBILC
 from sb3_mbil.rcal import RCAL
 from sb3_mbil.version import __version__
 
 #: The one registry: the RL Zoo registration, the benchmark, the speed script and the tests read it.
-ALGORITHMS = {"mbil": MBIL, "mbil_c": MBILC, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN}
+ALGORITHMS = {"mbil": MBIL, "mbil_c": MBILC, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN, "iq_learn": IQLearn}
 
 __all__ = [
     "ALGORITHMS",
@@ -21,6 +22,7 @@ __all__ = [
     "BC",
     "DSFN",
     "EDM",
+    "IQLearn",
     "MBIL",
     "MBILC",
     "RCAL",

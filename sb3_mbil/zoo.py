@@ -135,10 +135,19 @@ def sample_mbil_c_params(trial, n_actions: int, n_envs: int, additional_args: di
     return convert_bc_params(params)
 
 
+def sample_iq_learn_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for IQ-Learn: learning rate, batch size, network size, temperature, chi^2 alpha, discount."""
+    params = _common(trial, lr_range=(1e-5, 1e-3))
+    params["temperature"] = trial.suggest_categorical("temperature", [0.001, 0.01, 0.1])
+    params["alpha"] = trial.suggest_categorical("alpha", [0.1, 0.5, 1.0])
+    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.99])
+    return convert_bc_params(params)
+
+
 SAMPLERS = {"mbil": sample_mbil_params, "mbil_c": sample_mbil_c_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
-            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params}
+            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params, "iq_learn": sample_iq_learn_params}
 CONVERTERS = {"mbil": convert_mbil_params, "mbil_c": convert_bc_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
-              "rcal": convert_bc_params, "dsfn": convert_bc_params}
+              "rcal": convert_bc_params, "dsfn": convert_bc_params, "iq_learn": convert_bc_params}
 
 
 def check_registration(algos: dict[str, type] | None = None) -> None:

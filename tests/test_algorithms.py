@@ -11,7 +11,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL
+from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL, IQLearn
 
 # Small settings so the contract tests stay fast (flow quality: test_correctness.py; behaviour: test_baselines.py).
 FAST = {
@@ -182,7 +182,9 @@ def test_logged_values(algo, data, tmp_path):
     assert "time/total_timesteps" in keys
     train = [k for k in keys if k.startswith("train/") and k != "train/n_updates" and rows[0][k] != ""]
     assert train and all(np.isfinite(float(rows[0][k])) for k in train)
-    if algo is not DSFN:  # DSFN's warm start is BC; its other terms appear in later phases
+    if algo is IQLearn:  # no classification term: the IQ loss and its critic diagnostics
+        assert {"train/critic_loss", "train/chi2", "train/q_expert", "train/q_random", "train/v_expert"} <= keys
+    elif algo is not DSFN:  # DSFN's warm start is BC; its other terms appear in later phases
         assert "train/bc_loss" in keys or "train/classification_loss" in keys
     if algo is MBIL:
         assert {"train/balance_loss", "train/residual_mean", "flows/transition_heldout_ll", "flows/p_heldout_ll"} <= keys
@@ -259,7 +261,7 @@ def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tm
     np.testing.assert_allclose(pol.obs_std.numpy(), np.maximum(obs.std(0), 1e-3), rtol=1e-4)
     x = th.as_tensor(obs[:8])
     with th.no_grad():
-        expected = pol.mean_head(pol.latent(((x - pol.obs_mean) / pol.obs_std).clamp(-10, 10)))
+        expected = pol.heads_from_latent(pol.latent(((x - pol.obs_mean) / pol.obs_std).clamp(-10, 10)))[0]
         np.testing.assert_allclose(pol.mean_action(x).numpy(), expected.numpy(), rtol=1e-6)
     stats = pol.obs_mean.clone()
     model.learn(5)  # a second learn keeps the statistics
