@@ -27,9 +27,10 @@ def test_tensorboard_run_is_named_after_the_algorithm_and_holds_its_terms(algo, 
     assert steps == [10, 20, 30, 40, 50, 60]
 
 
-@pytest.mark.parametrize("algo, models", [(MBIL, ["T(s' | s, a)", "P(a' | s, a, s')"]), (MBILC, ["P(a' | s, a, s')", "T(s' | s, a)"])])
-def test_fitting_prints_progress_when_verbose(algo, models, cartpole_data, capsys):
-    make(algo, "CartPole-v1", cartpole_data, verbose=1).learn(1)
+@pytest.mark.parametrize("algo, models, kwargs", [(MBIL, ["T(s' | s, a)", "P(a' | s, a, s')"], {}),
+                                                   (MBILC, ["P(a' | s, a, s')", "T(s' | s, a)"], {"alpha_model": 1.0})])
+def test_fitting_prints_progress_when_verbose(algo, models, kwargs, cartpole_data, capsys):
+    make(algo, "CartPole-v1", cartpole_data, verbose=1, **kwargs).learn(1)
     out = capsys.readouterr().out
     assert "expert tuples" in out
     for name in models:
