@@ -144,10 +144,20 @@ def sample_iq_learn_params(trial, n_actions: int, n_envs: int, additional_args: 
     return convert_bc_params(params)
 
 
+def sample_valuedice_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for ValueDICE: actor and nu learning rates, batch size, network size, orthogonal regulariser."""
+    params = _common(trial, lr_range=(1e-6, 1e-4))
+    params["nu_learning_rate"] = trial.suggest_float("nu_learning_rate", 1e-4, 1e-2, log=True)
+    params["orthogonal_weight"] = trial.suggest_categorical("orthogonal_weight", [0.0, 1e-4, 1e-3])
+    return convert_bc_params(params)
+
+
 SAMPLERS = {"mbil": sample_mbil_params, "mbil_c": sample_mbil_c_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
-            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params, "iq_learn": sample_iq_learn_params}
+            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params, "iq_learn": sample_iq_learn_params,
+            "valuedice": sample_valuedice_params}
 CONVERTERS = {"mbil": convert_mbil_params, "mbil_c": convert_bc_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
-              "rcal": convert_bc_params, "dsfn": convert_bc_params, "iq_learn": convert_bc_params}
+              "rcal": convert_bc_params, "dsfn": convert_bc_params, "iq_learn": convert_bc_params,
+              "valuedice": convert_bc_params}
 
 
 def check_registration(algos: dict[str, type] | None = None) -> None:

@@ -11,13 +11,14 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL, IQLearn
+from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL, IQLearn, ValueDICE
 
 # Small settings so the contract tests stay fast (flow quality: test_correctness.py; behaviour: test_baselines.py).
 FAST = {
     "mbil": dict(flow_max_steps=60, flow_eval_every=20, noise_grid=(0.1,), flow_hidden=(32,), flow_transforms=2),
     "mbil_c": dict(model_max_steps=60, model_eval_every=20, model_hidden=(32,)),
     "edm": dict(sgld_steps=2, sgld_buffer_size=200),
+    "valuedice": dict(policy_kwargs=dict(net_arch=[32, 32]), nu_arch=[32, 32], batch_size=64),
     "dsfn": dict(warm_start_steps=8, dqn_steps=6, sf_steps=5, max_iterations=4, target_update_interval=3),
 }
 ALGOS = list(ALGORITHMS.values())
@@ -184,6 +185,8 @@ def test_logged_values(algo, data, tmp_path):
     assert train and all(np.isfinite(float(rows[0][k])) for k in train)
     if algo is IQLearn:  # no classification term: the IQ loss and its critic diagnostics
         assert {"train/critic_loss", "train/chi2", "train/q_expert", "train/q_random", "train/v_expert"} <= keys
+    elif algo is ValueDICE:  # the objective J(pi, nu) and its parts
+        assert {"train/objective", "train/nu_expert", "train/nu_initial", "train/orthogonal"} <= keys
     elif algo is not DSFN:  # DSFN's warm start is BC; its other terms appear in later phases
         assert "train/bc_loss" in keys or "train/classification_loss" in keys
     if algo is MBIL:
@@ -270,9 +273,11 @@ def test_observation_normalisation_uses_expert_stats_and_is_saved(algo, data, tm
     loaded = algo.load(tmp_path / "m.zip", env=gym.make("Pendulum-v1"))
     assert loaded.policy.normalize_observations and th.equal(loaded.policy.obs_mean, stats)
     np.testing.assert_array_equal(model.predict(obs[:8], deterministic=True)[0], loaded.predict(obs[:8], deterministic=True)[0])
-    # off by default: the statistics stay unset and unused
-    plain = make(algo, "Pendulum-v1", trajs).learn(5)
+    # off by default (unless the algorithm's reference settings standardise, as ValueDICE's do)
+    plain = make(algo, "Pendulum-v1", trajs, policy_kwargs={"normalize_observations": False}).learn(5)
     assert not plain.policy.normalize_observations and not bool(plain.policy.obs_stats_set)
+    default = make(algo, "Pendulum-v1", trajs).learn(5)
+    assert default.policy.normalize_observations == bool(algo.default_policy_kwargs.get("normalize_observations"))
 
 
 @pytest.mark.parametrize("algo", BOX_ALGOS)

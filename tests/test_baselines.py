@@ -26,6 +26,7 @@ BEHAVIOUR = {
     "mbil": dict(flow_max_steps=200),
     "edm": dict(sgld_steps=5),
     "iq_learn": dict(learning_rate=1e-3),
+    "valuedice": dict(learning_rate=1e-3, policy_kwargs=dict(net_arch=[64, 64]), nu_arch=[64, 64]),
     "dsfn": dict(warm_start_steps=1000, dqn_steps=1500, sf_steps=1500, max_iterations=2, gamma=0.9,
                  target_update_interval=100),
 }
@@ -158,3 +159,27 @@ def test_iq_learn_critic_stays_finite_and_ranks_expert_actions_first(env_id, ste
         for key in ("train/q_expert", "train/q_random", "train/v_expert", "train/critic_loss"):
             assert np.isfinite(row[key]), (key, row)
     assert seen[-1]["train/q_expert"] > seen[-1]["train/q_random"]
+
+
+def test_valuedice_absorbing_states_and_orthogonal_regulariser():
+    """A terminated episode leads to the absorbing state, which leads to itself with the zero action; a time-limit
+    end bootstraps; the orthogonal regulariser is 0 for orthogonal weights and positive otherwise."""
+    from sb3_mbil import Trajectory, ValueDICE
+    from sb3_mbil.valuedice.valuedice import orthogonal_regulariser
+
+    rng = np.random.default_rng(0)
+    ended = Trajectory((0.1 * rng.normal(size=(6, 4))).astype(np.float32), rng.integers(0, 2, 5), terminated=True)
+    cut = Trajectory((0.1 * rng.normal(size=(6, 4))).astype(np.float32), rng.integers(0, 2, 5), truncated=True)
+    model = ValueDICE("MlpPolicy", "CartPole-v1", expert_data=[ended, cut], seed=0)
+    transitions, absorbing, next_absorbing = model.absorbing_transitions()
+    assert len(absorbing) == 5 + 5 + 1
+    assert next_absorbing.tolist() == [0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1]  # the terminated step, then the self-loop
+    assert absorbing.tolist() == [0] * 10 + [1] and int(transitions.actions[-1]) == 0
+    assert float(transitions.next_observations[4].abs().sum()) == 0.0  # the absorbing state's observation part
+    th.testing.assert_close(transitions.next_observations[9], th.as_tensor(cut.observations[5]))  # bootstrapped
+
+    layer = th.nn.Linear(4, 4)
+    th.nn.init.orthogonal_(layer.weight)
+    assert float(orthogonal_regulariser(layer)) < 1e-10
+    th.nn.init.normal_(layer.weight)
+    assert float(orthogonal_regulariser(layer)) > 1e-3

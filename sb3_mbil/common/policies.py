@@ -148,8 +148,17 @@ class ImitationPolicy(BasePolicy):
             return (self.logits_head(h),)
         mean = self.mean_head(h)
         if self.bounded_mean:
-            mean = self.action_center + self.action_half_range * th.tanh(mean)
+            mean = self.squash(mean)
         return mean, self.log_std_head(h).clamp(*self.log_std_bounds)
+
+    def squash(self, raw_mean: th.Tensor) -> th.Tensor:
+        """``center + half_range * tanh(raw)``: a pre-squash action into the bounds (``bounded_mean``)."""
+        return self.action_center + self.action_half_range * th.tanh(raw_mean)
+
+    def raw_heads(self, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """(Box, ``bounded_mean``) the mean before :meth:`squash` and the log-std: a tanh-Gaussian's parameters."""
+        h = self._latent(obs)
+        return self.mean_head(h), self.log_std_head(h).clamp(*self.log_std_bounds)
 
     def heads(self, obs: th.Tensor) -> tuple[th.Tensor, ...]:
         """The network's outputs: ``(logits,)`` for Discrete, ``(mean, log_std)`` for Box."""
