@@ -4,16 +4,17 @@
 # below BC; BC's rows on the same seeds are results/tuning/bc_wd1e-3.csv (tuned BC) and default.csv.
 # Lane B (MuJoCo): Hopper-v4 N = 1, seeds 100-102, 5e4 updates, evaluated every 5000 on 10 episodes, the same
 # protocol and policy (bounded mean, standardised inputs) as results/tuning/bounded_mean.csv's bc_tanh rows.
-# One CSV per setting; resumable: rerun to finish. Usage: bash scripts/tune_mbil_c.sh A|B
+# Settings are explicit: the rows were made before the defaults changed (alpha_model 0, anchor_to_data "auto").
+# One CSV per setting; resumable: rerun to finish. Usage: bash scripts/tune_mbil_c.sh A|B|C|D|H
 set -euo pipefail
 cd "$(dirname "$0")/.."
 LANE=${1:-A}
 if [ "$LANE" = A ]; then
   LL="--envs LunarLander-v3 --n-trajectories 1 --seeds 100-114 --episodes 100 --local"
-  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k1.csv
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k1.csv --overrides '{"mbil_c": {"alpha_model": 1.0}}'
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model.csv --overrides '{"mbil_c": {"alpha_model": 0.0}}'
   # the model states at T's full spread hurt badly on some draws (-921 on seed 112): closer to the data
-  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k0.3.csv --overrides '{"mbil_c": {"model_state_scale": 0.3}}'
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_model_k0.3.csv --overrides '{"mbil_c": {"alpha_model": 1.0, "model_state_scale": 0.3}}'
   python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_no_model_wd1e-3.csv --overrides '{"mbil_c": {"alpha_model": 0.0, "weight_decay": 0.001}}'
 elif [ "$LANE" = B ]; then
   TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
@@ -22,7 +23,8 @@ elif [ "$LANE" = B ]; then
   # mbil_c_kl_* in that file: 85 and 255 at the end against BC's 2853): KL weighs the gap to P's mean by 1 / std^2; the
   # squared 2-Wasserstein distance is the default
   python scripts/run_curves.py $COMMON --csv results/tuning/mbil_c_hopper.csv --variants "{
-    \"mbil_c_tanh\": [\"mbil_c\", {$TANH}], \"mbil_c_tanh_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, $TANH}]}"
+    \"mbil_c_tanh\": [\"mbil_c\", {\"alpha_model\": 1.0, \"anchor_to_data\": false, $TANH}],
+    \"mbil_c_tanh_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, \"anchor_to_data\": false, $TANH}]}"
 fi
 if [ "$LANE" = C ] || [ "$LANE" = D ]; then
   # The W2 runs above (seed 100: 82 and 409 at the end, BC 2853) pull the policy's mean onto P's mean, which on one
@@ -37,4 +39,12 @@ if [ "$LANE" = C ] || [ "$LANE" = D ]; then
     \"mbil_c_anchor_no_model\": [\"mbil_c\", {\"alpha_model\": 0.0, \"anchor_to_data\": true, $TANH}],
     \"mbil_c_beta2_no_balance\": [\"mbil_c\", {\"alpha\": 0.0, \"alpha_model\": 0.0, \"beta\": 2.0, $TANH}],
     \"mbil_c_anchor_model0.1\": [\"mbil_c\", {\"alpha_model\": 0.1, \"model_state_scale\": 0.3, \"anchor_to_data\": true, $TANH}]}"
+fi
+if [ "$LANE" = H ]; then
+  # CCIL-style corrective labels from T (model_labels="corrective"), LunarLander-v3 N = 1, the seeds of lane A.
+  LL="--envs LunarLander-v3 --n-trajectories 1 --seeds 100-114 --episodes 100 --local"
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_corrective.csv \
+    --overrides '{"mbil_c": {"alpha_model": 1.0, "model_labels": "corrective"}}'
+  python scripts/benchmark.py --algos mbil_c $LL --csv results/tuning/mbil_c_corrective_a0.3_tol0.02.csv \
+    --overrides '{"mbil_c": {"alpha_model": 0.3, "model_labels": "corrective", "corrective_tolerance": 0.02}}'
 fi
