@@ -324,9 +324,12 @@ class MBILC(OfflineAlgorithm):
         has = prev >= 0
         data = model.next_action_distribution(s, a, s_next)
         n_pairs = len(prev)
-        cache: dict[str, Any] = {"has_target": has}
+        cache: dict[str, Any] = {"has_target": has, "weight": has.float() / has.float().mean().clamp(min=1e-12)}
         cache["data"] = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
                                                                                                d[prev[has]]) for d in data)
+        if model.discrete:  # KL(P || pi) = sum P log P - sum P log pi: the first sum once per pair
+            probs = cache["data"][0].exp() * has.float().unsqueeze(1)
+            cache["probs"], cache["neg_entropy"] = probs, (probs * cache["data"][0]).sum(1)
         if self.anchor_to_data:  # Box: P's mean at the data moved onto the observed a' (its std kept)
             a_next = self.expert_tuples().next_actions
             cache["data"] = (cache["data"][0].index_copy(0, th.nonzero(has).view(-1), a_next[prev[has]].view(-1, data[0].shape[1])),
@@ -411,17 +414,23 @@ class MBILC(OfflineAlgorithm):
         heads_s = [h[:n] for h in heads]
         loss = th.zeros((), device=self.device)
 
+        log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete else None  # once, for both terms
+
         # BC term: L_BC(pi, D) on the expert's (s, a) pairs.
         if self.beta > 0:
-            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind)
+            log_prob = None if log_pi is None else log_pi.gather(1, pairs.actions[i].view(-1, 1)).squeeze(1)
+            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind, log_prob=log_prob)
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
 
-        # Balance at the data: D(P(. | s, a, s') || pi(. | s')), at the sampled pairs that have a predecessor.
+        # Balance at the data: D(P(. | s, a, s') || pi(. | s')), over the pairs that have a predecessor (weight 0
+        # at a trajectory's first step; the weights average 1, so the term is the mean over those pairs).
         if self.alpha > 0:
-            has = cache["has_target"][i].float()
-            kl = balance_divergence(self._divergence, self.policy, [d[i] for d in cache["data"]], heads_s)
-            balance = (kl * has).sum() / has.sum().clamp(min=1.0)
+            if log_pi is not None and self._divergence == "kl":
+                divergence = cache["neg_entropy"][i] - (cache["probs"][i] * log_pi).sum(dim=1)
+            else:
+                divergence = balance_divergence(self._divergence, self.policy, [d[i] for d in cache["data"]], heads_s)
+            balance = (divergence * cache["weight"][i]).mean()
             loss = loss + self.alpha * balance
             self._record("train/balance_loss", balance)
 
