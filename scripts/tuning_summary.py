@@ -19,6 +19,12 @@ def main(paths):
     cells, table, by_seed = set(), {}, {}
     for path in paths:
         rows = read_rows(path)
+        if not rows or "n_trajectories" not in rows[0] or "gradient_step" in rows[0]:
+            print(f"(skipped {path}: not a grid CSV of scripts/benchmark.py)", file=sys.stderr)
+            continue
+        others = sorted({r["env"] for r in rows} - set(RANDOM_RETURN))
+        if others:
+            raise ValueError(f"{path}: expected classic-control rows ({', '.join(sorted(RANDOM_RETURN))}), found {others}")
         g = grouped(rows)
         for (algo, env, n), v in g.items():
             table[(f"{algo} [{path.split('/')[-1][:-4]}]", env, n)] = v
