@@ -10,13 +10,14 @@ from sb3_mbil.export import export_policy
 from sb3_mbil.iq_learn import IQLearn
 from sb3_mbil.mbil import MBIL
 from sb3_mbil.mbil_c import MBILC
+from sb3_mbil.odice import ODICE
 from sb3_mbil.rcal import RCAL
 from sb3_mbil.valuedice import ValueDICE
 from sb3_mbil.version import __version__
 
 #: The one registry: the RL Zoo registration, the benchmark, the speed script and the tests read it.
 ALGORITHMS = {"mbil": MBIL, "mbil_c": MBILC, "bc": BC, "edm": EDM, "avril": AVRIL, "rcal": RCAL, "dsfn": DSFN, "iq_learn": IQLearn,
-              "valuedice": ValueDICE}
+              "valuedice": ValueDICE, "odice": ODICE}
 
 __all__ = [
     "ALGORITHMS",
@@ -27,6 +28,7 @@ __all__ = [
     "IQLearn",
     "MBIL",
     "MBILC",
+    "ODICE",
     "RCAL",
     "Demonstrations",
     "Trajectory",

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from gymnasium.spaces import Box, Discrete
 
 CLEAN_ERRORS = (ValueError, FileNotFoundError, FloatingPointError)
 
@@ -29,6 +30,21 @@ class Case:
     run: Callable[[], object]
     outcome: str = ""
     message: str = ""
+
+
+def native_env(algo: type) -> str:
+    """The env the checks run an algorithm on: CartPole-v1 when it takes Discrete actions, else Pendulum-v1."""
+    return "CartPole-v1" if Discrete in algo.supported_action_spaces else "Pendulum-v1"
+
+
+def native_demo(algo: type, n_trajectories: int = 1):
+    """Expert data for :func:`native_env`: the shipped CartPole-v1 pool, or the hand-written Pendulum-v1 controller."""
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.experts.controllers import controller_demonstrations
+
+    if native_env(algo) == "CartPole-v1":
+        return load_demonstrations("CartPole-v1").sample(n_trajectories, seed=0)
+    return controller_demonstrations("Pendulum-v1", n_trajectories, seed=0)
 
 
 def _bad_values(default):
@@ -46,14 +62,12 @@ def _bad_values(default):
 
 
 def cases(workdir: Path) -> list[Case]:
-    from gymnasium.spaces import Box
 
     from sb3_mbil import ALGORITHMS, BC, MBIL, Demonstrations, Trajectory, load_demonstrations
     from sb3_mbil.benchmark.grid import KEY_COLUMNS, RESULT_COLUMNS
     from sb3_mbil.benchmark.results import append_rows, finished_keys, read_result_rows
 
     demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
-    o, a = demo[0].observations, demo[0].actions
     fast = {"mbil": dict(flow_max_steps=20, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
             "mbil_c": dict(model_max_steps=20, model_hidden=(16,)),
             "edm": dict(sgld_steps=1, sgld_buffer_size=50), "dsfn": dict(warm_start_steps=5, dqn_steps=5, sf_steps=5)}
@@ -69,10 +83,13 @@ def cases(workdir: Path) -> list[Case]:
                 if arg == "log_density_floor" and isinstance(value, float) and np.isfinite(value):
                     continue
                 out.append(Case("constructor argument", f"{name}({arg}={value!r})", arg,
-                                lambda algo=algo, arg=arg, value=value: algo("MlpPolicy", "CartPole-v1", **{arg: value})))
+                                lambda algo=algo, arg=arg, value=value: algo("MlpPolicy", native_env(algo), **{arg: value})))
         if Box not in algo.supported_action_spaces:
             out.append(Case("constructor argument", f"{name} on Pendulum-v1 (Box actions)", "action_space",
                             lambda algo=algo: algo("MlpPolicy", "Pendulum-v1")))
+        if Discrete not in algo.supported_action_spaces:
+            out.append(Case("constructor argument", f"{name} on CartPole-v1 (Discrete actions)", "action_space",
+                            lambda algo=algo: algo("MlpPolicy", "CartPole-v1")))
 
     # learn arguments
     for value in (-5, 1.5, True, "10"):
@@ -80,11 +97,13 @@ def cases(workdir: Path) -> list[Case]:
                         lambda value=value: BC("MlpPolicy", "CartPole-v1", expert_data=demo).learn(value)))
 
     # non-finite training
-    big = o.copy()
-    big[:50, 1] = 1e30
-    for name in ALGORITHMS:
+    for name, algo in ALGORITHMS.items():
+        native = native_demo(algo)[0]
+        big = native.observations.copy()
+        big[:50, 1] = 1e30
         out.append(Case("non-finite training", f"{name} on observations of 1e30", "observations",
-                        lambda name=name: ALGORITHMS[name]("MlpPolicy", "CartPole-v1", expert_data=[(big, a)], **fast.get(name, {})).learn(20)))
+                        lambda name=name, algo=algo, big=big, acts=native.actions: ALGORITHMS[name](
+                            "MlpPolicy", native_env(algo), expert_data=[(big, acts)], **fast.get(name, {})).learn(20)))
     out.append(Case("non-finite training", "MBIL learning_rate=1e6", "balance_loss",
                     lambda: MBIL("MlpPolicy", "CartPole-v1", expert_data=demo, learning_rate=1e6, seed=0, **fast["mbil"]).learn(300)))
 

@@ -152,12 +152,21 @@ def sample_valuedice_params(trial, n_actions: int, n_envs: int, additional_args:
     return convert_bc_params(params)
 
 
+def sample_odice_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Sampler for ODICE: learning rates, batch size, network size, lambda, eta."""
+    params = _common(trial, lr_range=(1e-5, 1e-3))
+    params["value_learning_rate"] = trial.suggest_float("value_learning_rate", 1e-5, 1e-3, log=True)
+    params["lambda_"] = trial.suggest_categorical("lambda_", [0.2, 0.4, 0.6, 0.8])
+    params["eta"] = trial.suggest_categorical("eta", [0.5, 1.0, 2.0])
+    return convert_bc_params(params)
+
+
 SAMPLERS = {"mbil": sample_mbil_params, "mbil_c": sample_mbil_c_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
             "rcal": sample_rcal_params, "dsfn": sample_dsfn_params, "iq_learn": sample_iq_learn_params,
-            "valuedice": sample_valuedice_params}
+            "valuedice": sample_valuedice_params, "odice": sample_odice_params}
 CONVERTERS = {"mbil": convert_mbil_params, "mbil_c": convert_bc_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
               "rcal": convert_bc_params, "dsfn": convert_bc_params, "iq_learn": convert_bc_params,
-              "valuedice": convert_bc_params}
+              "valuedice": convert_bc_params, "odice": convert_bc_params}
 
 
 def check_registration(algos: dict[str, type] | None = None) -> None:

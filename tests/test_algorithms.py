@@ -11,7 +11,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
 
-from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL, IQLearn, ValueDICE
+from sb3_mbil import ALGORITHMS, BC, DSFN, MBIL, ODICE, IQLearn, ValueDICE
 
 # Small settings so the contract tests stay fast (flow quality: test_correctness.py; behaviour: test_baselines.py).
 FAST = {
@@ -24,6 +24,8 @@ FAST = {
 ALGOS = list(ALGORITHMS.values())
 ENVS = ["CartPole-v1", "Pendulum-v1"]
 SPACE = {"CartPole-v1": spaces.Discrete, "Pendulum-v1": spaces.Box}
+# for the tests over every algorithm: CartPole-v1 where the algorithm takes Discrete actions, else Pendulum-v1
+ENV_OF = {algo: "CartPole-v1" if spaces.Discrete in algo.supported_action_spaces else "Pendulum-v1" for algo in ALGOS}
 # every (algorithm, env) pair the algorithm supports
 CASES = [pytest.param(algo, env, id=f"{name}-{env}") for name, algo in ALGORITHMS.items() for env in ENVS
          if SPACE[env] in algo.supported_action_spaces]
@@ -105,9 +107,9 @@ def test_mbil_load_restores_flows_without_refitting(data, tmp_path, monkeypatch)
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_learning_continues_after_load(algo, data, tmp_path):
-    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(20)
+    model = make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(20)
     model.save(tmp_path / "m.zip")
-    loaded = algo.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
+    loaded = algo.load(tmp_path / "m.zip", env=gym.make(ENV_OF[algo]), expert_data=data[ENV_OF[algo]])
     before = params(loaded)
     loaded.learn(20, reset_num_timesteps=False)
     assert loaded.num_timesteps == 40
@@ -146,10 +148,10 @@ def test_tuple_targets_are_the_cached_balance_targets(data):
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_callbacks_count_gradient_steps(algo, data, tmp_path):
-    eval_env = Monitor(gym.make("CartPole-v1"))
+    eval_env = Monitor(gym.make(ENV_OF[algo]))
     eval_cb = EvalCallback(eval_env, eval_freq=10, n_eval_episodes=1, best_model_save_path=str(tmp_path), log_path=str(tmp_path))
     ckpt = CheckpointCallback(save_freq=15, save_path=str(tmp_path / "ckpt"), name_prefix="m")
-    make(algo, "CartPole-v1", data["CartPole-v1"]).learn(30, callback=[eval_cb, ckpt])
+    make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(30, callback=[eval_cb, ckpt])
     assert len(eval_cb.evaluations_timesteps) == 3
     assert eval_cb.evaluations_timesteps == [10, 20, 30]
     assert (tmp_path / "best_model.zip").exists()
@@ -162,18 +164,18 @@ def test_callback_can_stop_training(algo, data):
         def _on_step(self):
             return self.n_calls < 7
 
-    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(100, callback=StopAt())
+    model = make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(100, callback=StopAt())
     assert model.num_timesteps == 7
 
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_progress_bar(algo, data):
-    make(algo, "CartPole-v1", data["CartPole-v1"]).learn(10, progress_bar=True)
+    make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(10, progress_bar=True)
 
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_logged_values(algo, data, tmp_path):
-    model = make(algo, "CartPole-v1", data["CartPole-v1"])
+    model = make(algo, ENV_OF[algo], data[ENV_OF[algo]])
     model.set_logger(configure(str(tmp_path), ["csv"]))
     model.learn(20, log_interval=10)
     with open(tmp_path / "progress.csv") as f:
@@ -183,7 +185,9 @@ def test_logged_values(algo, data, tmp_path):
     assert "time/total_timesteps" in keys
     train = [k for k in keys if k.startswith("train/") and k != "train/n_updates" and rows[0][k] != ""]
     assert train and all(np.isfinite(float(rows[0][k])) for k in train)
-    if algo is IQLearn:  # no classification term: the IQ loss and its critic diagnostics
+    if algo is ODICE:  # V's two terms and the weighted BC
+        assert {"train/value_forward", "train/value_backward", "train/policy_loss", "train/weight_mean"} <= keys
+    elif algo is IQLearn:  # no classification term: the IQ loss and its critic diagnostics
         assert {"train/critic_loss", "train/chi2", "train/q_expert", "train/q_random", "train/v_expert"} <= keys
     elif algo is ValueDICE:  # the objective J(pi, nu) and its parts
         assert {"train/objective", "train/nu_expert", "train/nu_initial", "train/orthogonal"} <= keys
@@ -296,16 +300,17 @@ def test_bounded_mean_stays_inside_the_action_bounds_and_is_saved(algo, data, tm
     model.save(tmp_path / "m.zip")
     loaded = algo.load(tmp_path / "m.zip")
     assert loaded.policy.bounded_mean and th.equal(loaded.policy.mean_action(th.zeros(4, 3)), mean)
-    with pytest.raises(ValueError, match="bounded_mean"):
-        make(algo, "CartPole-v1", data["CartPole-v1"], policy_kwargs={"bounded_mean": True})
+    if spaces.Discrete in algo.supported_action_spaces:
+        with pytest.raises(ValueError, match="bounded_mean"):
+            make(algo, "CartPole-v1", data["CartPole-v1"], policy_kwargs={"bounded_mean": True})
 
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_training_continued_after_load_equals_training_continued_in_memory(algo, data, tmp_path):
     """Every torch state (networks, optimisers, an algorithm's own buffers) is in the zip."""
-    model = make(algo, "CartPole-v1", data["CartPole-v1"]).learn(20)
+    model = make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(20)
     model.save(tmp_path / "m.zip")
-    loaded = algo.load(tmp_path / "m.zip", env=gym.make("CartPole-v1"), expert_data=data["CartPole-v1"])
+    loaded = algo.load(tmp_path / "m.zip", env=gym.make(ENV_OF[algo]), expert_data=data[ENV_OF[algo]])
     assert_same_params(params(model), params(loaded))
     for m in (model, loaded):
         th.manual_seed(7)
@@ -355,7 +360,7 @@ def test_discrete_only_algorithms_refuse_box_actions(algo):
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_learn_refuses_a_step_count_that_is_not_one(algo, data):
-    model = make(algo, "CartPole-v1", data["CartPole-v1"])
+    model = make(algo, ENV_OF[algo], data[ENV_OF[algo]])
     for bad in (-5, 1.5, True, "10"):
         with pytest.raises(ValueError, match="total_timesteps"):
             model.learn(bad)

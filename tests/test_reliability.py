@@ -12,6 +12,7 @@ import pytest
 import torch as th
 
 from sb3_mbil import ALGORITHMS, BC, MBIL, Demonstrations, Trajectory, load_demonstrations
+from sb3_mbil.robustness import native_demo, native_env
 
 FAST = {"mbil": dict(flow_max_steps=30, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
         "mbil_c": dict(model_max_steps=30, model_hidden=(16,)),
@@ -25,21 +26,23 @@ def demo():
 
 
 def make(name, data, **kwargs):
-    return ALGORITHMS[name]("MlpPolicy", "CartPole-v1", expert_data=data, seed=0, **{**FAST.get(name, {}), **kwargs})
+    env = native_env(ALGORITHMS[name])
+    return ALGORITHMS[name]("MlpPolicy", env, expert_data=data, seed=0, **{**FAST.get(name, {}), **kwargs})
 
 
 # ---------------------------------------------------------------------------------------------- non-finite
 @pytest.mark.parametrize("name", list(ALGORITHMS))
-def test_data_that_would_overflow_float32_is_refused_when_given(name, demo):
-    o, a = demo[0].observations.copy(), demo[0].actions
+def test_data_that_would_overflow_float32_is_refused_when_given(name):
+    native = native_demo(ALGORITHMS[name])[0]
+    o, a = native.observations.copy(), native.actions
     o[:50, 1] = 1e30
     with pytest.raises(ValueError, match=r"observations: expected values of magnitude <= 1e\+15"):
         make(name, [(o, a)])
 
 
 @pytest.mark.parametrize("name", list(ALGORITHMS))
-def test_a_non_finite_loss_or_parameter_stops_training_naming_it(name, demo):
-    model = make(name, demo).learn(3)
+def test_a_non_finite_loss_or_parameter_stops_training_naming_it(name):
+    model = make(name, native_demo(ALGORITHMS[name])).learn(3)
     with th.no_grad():
         next(model.policy.parameters()).fill_(float("nan"))
     with pytest.raises(FloatingPointError, match=rf"{type(model).__name__}: .* (is nan|is not finite) .*gradient step 4"):

@@ -10,7 +10,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import configure
 from test_algorithms import FAST, NoStepping
 
-from sb3_mbil import ALGORITHMS, BC, MBIL, ValidationCallback, load_demonstrations, split_blocks
+from sb3_mbil import ALGORITHMS, BC, MBIL, ValidationCallback, as_demonstrations, load_demonstrations, split_blocks
 
 
 @pytest.fixture(scope="module")
@@ -43,8 +43,12 @@ def test_blocks_partition_the_steps_and_pieces_keep_their_true_successors(demo):
 
 @pytest.mark.parametrize("name", list(ALGORITHMS))
 def test_validation_logs_held_out_losses_and_never_touches_the_env(name, demo, tmp_path):
-    env = NoStepping(gym.make("CartPole-v1"))
-    model = ALGORITHMS[name]("MlpPolicy", env, expert_data=demo, seed=0, **FAST.get(name, {}))
+    from sb3_mbil.robustness import native_demo, native_env
+
+    algo = ALGORITHMS[name]
+    data = demo if native_env(algo) == "CartPole-v1" else native_demo(algo, 2)
+    env = NoStepping(gym.make(native_env(algo)))
+    model = algo("MlpPolicy", env, expert_data=data, seed=0, **FAST.get(name, {}))
     model.set_logger(configure(str(tmp_path), ["csv"]))
     cb = ValidationCallback(holdout_fraction=0.3, eval_freq=10, block_length=30)
 
@@ -59,7 +63,7 @@ def test_validation_logs_held_out_losses_and_never_touches_the_env(name, demo, t
         model.learn(30, callback=[Arm(), cb], log_interval=10)
     finally:
         NoStepping.armed = False
-    assert len(cb.history) == 3 and model.demonstrations().n_steps + cb.heldout.n_steps == demo.n_steps
+    assert len(cb.history) == 3 and model.demonstrations().n_steps + cb.heldout.n_steps == as_demonstrations(data).n_steps
     with open(tmp_path / "progress.csv") as f:
         row = list(csv.DictReader(f))[-1]
     assert np.isfinite(float(row["validation/bc_loss"])) and np.isfinite(float(row["validation/best_bc_loss"]))
