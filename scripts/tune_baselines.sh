@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# First measurement of the critic-based baselines (issue 16) on tuning seeds: Hopper-v4, one trajectory, seeds
+# 100-102, their zoo settings, 20 000 updates (a first look: the zoo's budgets are 5e4-1e5), evaluated every 5 000 on
+# 10 episodes. BC on the same draws: results/tuning/bounded_mean.csv (bc, bc_tanh; gradient_step 20000).
+# Resumable: rerun to finish.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 20000 --eval-every 5000 --episodes 10 --local \
+  --csv results/tuning/baselines_hopper.csv --variants '{"iq_learn": ["iq_learn", {}], "valuedice": ["valuedice", {}], "odice": ["odice", {}]}'
