@@ -195,7 +195,8 @@ class ValueDICE(OfflineAlgorithm):
         a0 = self._sample_actions(s0)
 
         # The ValueDICE objective J(pi, nu).
-        nu_expert = self._nu(s, absorbing_i, self._action_features(a))
+        # the absorbing state's action is the zero vector (for Discrete too, not the one-hot of action 0)
+        nu_expert = self._nu(s, absorbing_i, self._action_features(a) * (1.0 - absorbing_i).unsqueeze(-1))
         nu_next = self._nu(s_next, next_absorbing_i, a_next)
         nu_initial = self._nu(s0, th.zeros(len(s0), device=self.device), a0)
         residual = nu_expert - self.gamma * nu_next
