@@ -128,9 +128,11 @@ class IQLearn(OfflineAlgorithm):
         return names, others
 
     # ------------------------------------------------------------------ values
-    def _box_value(self, critic: MlpCritic, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
-        """(V(s), log pi(a~ | s), Q(s, a~)) with a~ ~ pi(s) reparameterised and clipped to the bounds."""
-        mean, log_std = self.policy.heads(obs)
+    def _box_value(self, critic: MlpCritic, obs: th.Tensor, heads: tuple[th.Tensor, ...] | None = None
+                   ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """(V(s), log pi(a~ | s), Q(s, a~)) with a~ ~ pi(s) reparameterised and clipped to the bounds (``heads``: the
+        policy's outputs at ``obs`` if already computed, e.g. without gradient)."""
+        mean, log_std = self.policy.heads(obs) if heads is None else heads
         sample = mean + th.randn_like(mean) * log_std.exp()
         log_pi = self.policy.log_prob_from_heads((mean, log_std), sample)
         low, high = self.policy.action_center - self.policy.action_half_range, self.policy.action_center + self.policy.action_half_range
@@ -149,9 +151,13 @@ class IQLearn(OfflineAlgorithm):
         else:
             features = self.policy.features(batch.observations)
             q = self.critic(features, batch.actions)[0].squeeze(-1)
+            # V(s) = Q(s, a~) - t log pi(a~ | s): its gradient reaches Q (it pushes Q down at the policy's actions);
+            # the actor's sample is held fixed here. V(s') comes from the target critic.
+            with th.no_grad():
+                policy_heads = self.policy.heads(batch.observations)
+            v = self._box_value(self.critic, batch.observations, heads=policy_heads)[0]
             with th.no_grad():
                 v_next = self._box_value(self.critic_target, batch.next_observations)[0]
-                v = self._box_value(self.critic, batch.observations)[0]
                 low = self.policy.action_center - self.policy.action_half_range
                 random_actions = low + 2 * self.policy.action_half_range * th.rand_like(batch.actions.float())
                 q_random = self.critic(features, random_actions)[0].squeeze(-1)
