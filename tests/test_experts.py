@@ -17,6 +17,8 @@ from sb3_mbil.experts import EXPERTS, generate_demonstrations, get_expert, load_
 # Shipped pools: the acceptance thresholds of their experts, and their size.
 SHIPPED = {env: spec.min_return for env, spec in EXPERTS.items()}
 POOL_SIZE = {"CartPole-v1": 1000, "Acrobot-v1": 1000, "LunarLander-v3": 1000}  # MuJoCo pools: 50 trajectories
+#: each classic-control env's second expert (another RL Zoo algorithm), pool "<env>-<algo>"
+SECOND_POOLS = {"CartPole-v1": "ppo", "LunarLander-v3": "dqn", "Acrobot-v1": "dqn"}
 
 
 @pytest.fixture(scope="module")
@@ -26,9 +28,10 @@ def dqn_zip(tmp_path_factory):
     return path
 
 
-@pytest.mark.parametrize("env_id", [e for e in SHIPPED if e in available_pools()])
-def test_shipped_pools_match_their_envs(env_id):
-    d = load_demonstrations(env_id)
+@pytest.mark.parametrize("env_id, expert", [(e, None) for e in SHIPPED if e in available_pools()]
+                         + [(e, a) for e, a in SECOND_POOLS.items() if f"{e}-{a}" in available_pools()])
+def test_shipped_pools_match_their_envs(env_id, expert):
+    d = load_demonstrations(env_id, expert=expert)
     env = gym.make(env_id)
     assert len(d) == POOL_SIZE.get(env_id, 50)
     d.check_spaces(env.observation_space, env.action_space)
@@ -77,6 +80,44 @@ def test_unreachable_hub_falls_back_to_local_zoo_training(tmp_path, monkeypatch,
     assert record["eval_episodes"] == 3
     assert any("training the expert locally with rl_zoo3 instead" in r.message for r in caplog.records)
     assert (tmp_path / "zoo" / "dqn-CartPole-v1-seed3-n200" / "dqn" / "CartPole-v1_1" / "best_model.zip").is_file()
+
+
+def test_expert_that_falls_is_refused(dqn_zip):
+    """An untrained DQN on CartPole-v1 ends every episode long before the time limit (500 steps)."""
+    expert, record = get_expert("CartPole-v1", str(dqn_zip), algo="dqn", min_return=0.0, n_eval_episodes=2,
+                                min_full_fraction=0.0)
+    assert record["eval_full_fraction"] == 0.0
+    with pytest.raises(ValueError, match="100% of them to the time limit"):
+        get_expert("CartPole-v1", str(dqn_zip), algo="dqn", min_return=0.0, n_eval_episodes=2, min_full_fraction=1.0)
+
+
+@pytest.mark.parametrize("min_full_fraction, stops", [(0.0, True), (1.0, False)])
+def test_stop_on_return_can_require_episodes_to_the_time_limit(min_full_fraction, stops):
+    from stable_baselines3 import PPO
+
+    from sb3_mbil.common.callbacks import StopTrainingOnReturn
+
+    model = PPO("MlpPolicy", "LunarLander-v3", n_steps=64, batch_size=64, n_epochs=1, seed=0)
+    stop = StopTrainingOnReturn(min_return=-1e9, eval_freq=64, n_eval_episodes=2, min_full_fraction=min_full_fraction,
+                                verbose=0)
+    model.learn(256, callback=stop)
+    assert stop.last_full_fraction == 0.0  # an untrained lander crashes long before the time limit (1000 steps)
+    assert (model.num_timesteps < 256) == stops
+
+
+def test_second_expert_pools_by_name_and_algorithm():
+    from sb3_mbil.common.demonstrations import pool_name
+
+    assert pool_name("LunarLander-v3") == "LunarLander-v3"
+    assert pool_name("LunarLander-v3", "ppo") == "LunarLander-v3"  # the first pool's expert
+    assert load_demonstrations("CartPole-v1", expert="dqn").metadata["pool"] == "CartPole-v1"
+    for env_id, algo in SECOND_POOLS.items():
+        if f"{env_id}-{algo}" in available_pools():
+            d = load_demonstrations(env_id, expert=algo.upper())
+            assert d.metadata["pool"] == f"{env_id}-{algo}"
+            assert d.metadata["expert"]["algo"] == algo
+    with pytest.raises(ValueError, match=r"expert: expected one of \['ppo'"):
+        load_demonstrations("LunarLander-v3", expert="trpo")
 
 
 def test_corrupt_or_mismatched_models_are_refused(tmp_path, dqn_zip):

@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.monitor import Monitor
@@ -13,7 +14,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize, sync_env
 
 
 class StopTrainingOnReturn(BaseCallback):
-    """Evaluate every ``eval_freq`` calls; stop training once the mean return reaches ``min_return``.
+    """Evaluate every ``eval_freq`` calls; stop training once the mean return reaches ``min_return`` (and, with
+    ``min_full_fraction``, once that share of the evaluation episodes runs to the time limit without falling).
 
     Usable from rl_zoo3's ``callback`` hyperparameter, e.g.
     ``--hyperparams "callback:[{'sb3_mbil.common.callbacks.StopTrainingOnReturn': {'min_return': 3000}}]"``.
@@ -21,11 +23,16 @@ class StopTrainingOnReturn(BaseCallback):
     :param min_return: mean return over ``n_eval_episodes`` that ends training
     :param eval_freq: calls between evaluations (env steps for one env)
     :param n_eval_episodes: deterministic evaluation episodes
+    :param min_full_fraction: share of the evaluation episodes that must reach the env's time limit (not end in a
+        terminal state) before training stops; 0 checks the return alone
     """
 
-    def __init__(self, min_return: float, eval_freq: int = 10_000, n_eval_episodes: int = 10, verbose: int = 1):
+    def __init__(self, min_return: float, eval_freq: int = 10_000, n_eval_episodes: int = 10,
+                 min_full_fraction: float = 0.0, verbose: int = 1):
         super().__init__(verbose)
         self.min_return = float(min_return)
+        self.min_full_fraction = float(min_full_fraction)
+        self.last_full_fraction: float | None = None
         self.eval_freq = int(eval_freq)
         self.n_eval_episodes = int(n_eval_episodes)
         self.last_mean_return: float | None = None
@@ -37,16 +44,22 @@ class StopTrainingOnReturn(BaseCallback):
         if train_norm is not None:
             eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
         self.eval_env = eval_env
+        self.time_limit = gym.spec(env_id).max_episode_steps
 
     def _on_step(self) -> bool:
         if self.n_calls % self.eval_freq != 0:
             return True
         sync_envs_normalization(self.training_env, self.eval_env)
-        self.last_mean_return, _ = evaluate_policy(self.model, self.eval_env, self.n_eval_episodes, deterministic=True)
+        returns, lengths = evaluate_policy(self.model, self.eval_env, self.n_eval_episodes, deterministic=True,
+                                           return_episode_rewards=True)
+        self.last_mean_return = float(np.mean(returns))
+        self.last_full_fraction = float(np.mean(np.asarray(lengths) >= self.time_limit)) if self.time_limit else 1.0
         self.logger.record("eval/stop_check_return", self.last_mean_return)
-        if self.last_mean_return >= self.min_return:
+        self.logger.record("eval/stop_check_full_fraction", self.last_full_fraction)
+        if self.last_mean_return >= self.min_return and self.last_full_fraction >= self.min_full_fraction:
             if self.verbose:
-                print(f"Stopping: mean return {self.last_mean_return:.1f} >= {self.min_return} at {self.num_timesteps} steps")
+                print(f"Stopping: mean return {self.last_mean_return:.1f} >= {self.min_return}, "
+                      f"{self.last_full_fraction:.0%} of the episodes to the time limit at {self.num_timesteps} steps")
             return False
         return True
 

@@ -501,9 +501,34 @@ def _import_minari():
     return minari
 
 
-def load_demonstrations(path_or_name: str | os.PathLike) -> Demonstrations:
-    """Load demonstrations from a ``.npz`` file, a shipped expert pool by env id (``"CartPole-v1"``), or a dataset
-    of the local Minari store (``"minari:<dataset id>"``)."""
+def pool_name(env_id: str, expert: str | None = None) -> str:
+    """The shipped pool of ``env_id`` whose expert is the RL Zoo algorithm ``expert``.
+
+    Each env's first pool is named after the env (``"LunarLander-v3"``, the paper's expert); a second expert's pool
+    after the env and its algorithm (``"LunarLander-v3-dqn"``). ``expert=None`` is the first pool.
+    """
+    pools = available_pools()
+    if expert is None:
+        return env_id
+    expert = str(expert).lower()
+    if f"{env_id}-{expert}" in pools:
+        return f"{env_id}-{expert}"
+    from sb3_mbil.experts.generate import EXPERTS  # the first pools' experts
+
+    first = EXPERTS.get(env_id)
+    if first is not None and first.algo == expert and env_id in pools:
+        return env_id
+    choices = ([first.algo] if first is not None and env_id in pools else []) + [
+        p[len(env_id) + 1:] for p in pools if p.startswith(f"{env_id}-")]
+    raise ValueError(f"expert: expected one of {choices} for {env_id}, found {expert!r}")
+
+
+def load_demonstrations(path_or_name: str | os.PathLike, expert: str | None = None) -> Demonstrations:
+    """Load demonstrations from a ``.npz`` file, a shipped expert pool by env id (``"CartPole-v1"``; ``expert="ppo"``
+    picks the env's pool of another expert, see :func:`pool_name`), or a dataset of the local Minari store
+    (``"minari:<dataset id>"``)."""
+    if expert is not None:
+        path_or_name = pool_name(str(path_or_name), expert)
     if isinstance(path_or_name, str) and path_or_name.startswith(MINARI_PREFIX):
         demos = Demonstrations.from_minari(path_or_name[len(MINARI_PREFIX):])
         demos.metadata["pool"] = path_or_name

@@ -53,6 +53,10 @@ class ExpertSpec:
     save_freq: int | None = None
     stop_at_return: float | None = None
     n_evaluations: int = 20
+    #: share of the acceptance episodes that must run to the time limit (not fall); with it, training also stops
+    #: only when that share of 20 evaluation episodes does, and the expert is the model training stopped on (the
+    #: zoo's best-return checkpoint does not select for episodes that never fall)
+    min_full_fraction: float = 0.0
 
 
 # The paper's experts (DQN CartPole, A2C Acrobot, PPO LunarLander), from the RL Zoo.
@@ -65,8 +69,10 @@ EXPERTS: dict[str, ExpertSpec] = {
     "LunarLander-v3": ExpertSpec("ppo", 200.0),
     "Hopper-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3300.0, n_evaluations=40),
     "HalfCheetah-v4": ExpertSpec("sac", 5000.0, save_freq=25_000, stop_at_return=5500.0, n_evaluations=40),
-    "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=40),
-    "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=40),
+    "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=40,
+                              min_full_fraction=0.95),
+    "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=40,
+                         min_full_fraction=0.95),
 }
 
 
@@ -189,7 +195,8 @@ def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
 
 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
-                     verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None) -> Expert:
+                     verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None,
+                     min_full_fraction: float = 0.0) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
@@ -201,6 +208,9 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param stop_at_return: stop training once the deterministic mean return over 10 episodes
         reaches this value (checked every ``budget / n_evaluations`` steps); the zoo's step budget
         stays the upper bound.
+    :param min_full_fraction: with ``stop_at_return``, stop only once this share of 20 evaluation episodes also
+        runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
+        instead of the zoo's best-return checkpoint.
     """
     folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
     runs_dir = folder / algo
@@ -238,8 +248,10 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
                 "save_freq": int(save_freq), "save_path": str(runs_dir / next_run), "keep": 2}})
             cmd += ["--save-replay-buffer"]
         if stop_at_return is not None:
-            callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": {
-                "min_return": float(stop_at_return), "eval_freq": eval_freq}})
+            stop = {"min_return": float(stop_at_return), "eval_freq": eval_freq}
+            if min_full_fraction > 0:
+                stop.update(min_full_fraction=float(min_full_fraction), n_eval_episodes=20)
+            callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": stop})
         hyperparams = [f"callback:{callbacks!r}"] if callbacks else []
         if resume is not None and _off_policy(algo):
             # rl_zoo3's -i restarts the step count, so the zoo's learning_starts would spend the
@@ -254,6 +266,11 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         returncode = _run_logged(cmd, folder.with_suffix(".log"), f"{algo} on {env_id}", done, budget, verbose)
         if returncode != 0:
             raise RuntimeError(f"rl_zoo3 training failed (exit {returncode}); see {folder.with_suffix('.log')}")
+    if min_full_fraction > 0 and _run_ids(runs_dir, env_id):
+        last = runs_dir / f"{env_id}_{_run_ids(runs_dir, env_id)[-1]}"
+        if (last / f"{env_id}.zip").is_file():
+            return load_expert_file(last / f"{env_id}.zip", env_id, algo, last / env_id / "vecnormalize.pkl",
+                                    source=f"zoo:{algo} seed={seed} final")
     best = _best_run(runs_dir, env_id)
     if best is None:
         raise RuntimeError(f"rl_zoo3 training left no best_model.zip in {runs_dir}; see {folder.with_suffix('.log')}")
@@ -412,18 +429,23 @@ def rollout(expert: Expert, n_episodes: int, seed: int, n_envs: int = 16, progre
     return Demonstrations([results[i] for i in range(n_episodes)], {"env_id": expert.env_id})
 
 
-def evaluate_expert(expert: Expert, n_episodes: int = 100, seed: int = 10**6) -> tuple[float, float]:
-    """Mean and std of the expert's return over ``n_episodes`` (seeds apart from the pool's)."""
-    returns = rollout(expert, n_episodes, seed).episode_returns
-    return float(returns.mean()), float(returns.std())
+def evaluate_expert(expert: Expert, n_episodes: int = 100, seed: int = 10**6) -> tuple[float, float, float]:
+    """Mean and std of the expert's return over ``n_episodes`` (seeds apart from the pool's), and the share of the
+    episodes that ran to the time limit (cut by it, not ended in a terminal state)."""
+    episodes = rollout(expert, n_episodes, seed)
+    returns = episodes.episode_returns
+    full = np.mean([t.truncated and not t.terminated for t in episodes])
+    return float(returns.mean()), float(returns.std()), float(full)
 
 
 def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: int = 0, min_return: float | None = None,
-               n_eval_episodes: int = 100, max_attempts: int = 5, n_timesteps: int | None = None) -> tuple[Expert, dict]:
+               n_eval_episodes: int = 100, max_attempts: int = 5, n_timesteps: int | None = None,
+               min_full_fraction: float | None = None) -> tuple[Expert, dict]:
     """An accepted expert for ``env_id`` from ``source`` (``"hub"``, ``"zoo"`` or a model path).
 
     Returns the expert and an evaluation record. Raises ``ValueError`` when no expert reaches the
-    return threshold (a weak expert is never used silently).
+    return threshold, or runs the required share of its episodes to the time limit (``min_full_fraction``, by
+    default the env's :class:`ExpertSpec`): a weak expert is never used silently.
     """
     spec = EXPERTS.get(env_id)
     algo = algo or (spec.algo if spec else None)
@@ -433,7 +455,10 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
     if threshold is None:
         logger.warning("no return threshold for %s: the expert is accepted whatever it scores (pass min_return)", env_id)
     zoo_kwargs = {"save_freq": spec.save_freq, "stop_at_return": spec.stop_at_return,
-                  "n_evaluations": spec.n_evaluations} if spec and spec.algo == algo else {}
+                  "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction} \
+        if spec and spec.algo == algo else {}
+    min_full = min_full_fraction if min_full_fraction is not None else (
+        spec.min_full_fraction if spec and spec.algo == algo else 0.0)
     attempts = []
     for attempt in range(max_attempts):
         attempt_seed = seed + attempt
@@ -449,21 +474,22 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
         else:
             expert = load_expert_file(source, env_id, algo, Path(source).parent / env_id / "vecnormalize.pkl")
         t0 = time.time()
-        mean, std = evaluate_expert(expert, n_eval_episodes)
+        mean, std, full = evaluate_expert(expert, n_eval_episodes)
         record = {"source": expert.source, "algo": algo, "seed": attempt_seed, "eval_mean_return": mean,
-                  "eval_std_return": std, "eval_episodes": n_eval_episodes, "min_return": threshold,
-                  "eval_seconds": round(time.time() - t0, 1)}
+                  "eval_std_return": std, "eval_full_fraction": full, "eval_episodes": n_eval_episodes,
+                  "min_return": threshold, "min_full_fraction": min_full, "eval_seconds": round(time.time() - t0, 1)}
         attempts.append(record)
-        logger.info("expert %s: mean return %.1f +- %.1f over %d episodes (threshold %s)", expert.source, mean, std,
-                    n_eval_episodes, threshold)
-        if threshold is None or mean >= threshold:
+        logger.info("expert %s: mean return %.1f +- %.1f over %d episodes, %.0f%% to the time limit (threshold %s, %.0f%%)",
+                    expert.source, mean, std, n_eval_episodes, 100 * full, threshold, 100 * min_full)
+        if (threshold is None or mean >= threshold) and full >= min_full:
             record["attempts"] = attempts[:-1]
             return expert, record
         if source != "zoo":
             break
     raise ValueError(
-        f"expert for {env_id}: expected a mean return >= {threshold} over {n_eval_episodes} episodes, "
-        f"found {json.dumps([(a['source'], round(a['eval_mean_return'], 1)) for a in attempts])}"
+        f"expert for {env_id}: expected a mean return >= {threshold} over {n_eval_episodes} episodes"
+        + (f" with {min_full:.0%} of them to the time limit" if min_full else "")
+        + f", found {json.dumps([(a['source'], round(a['eval_mean_return'], 1), a['eval_full_fraction']) for a in attempts])}"
     )
 
 
