@@ -6,7 +6,9 @@
 Ray starts locally by default; --address sends the same grid to a Ray cluster; --local runs
 without Ray. Finished rows are skipped, so rerunning resumes an interrupted grid. Rows go to
 runs/classic_control.csv unless --csv names another file (rows are appended, never rewritten).
-Your own data: --pool my_demos.npz (or minari:<dataset id>) with one env.
+Your own data: --pool my_demos.npz (or minari:<dataset id>) with one env. Each env's second expert (another RL Zoo
+algorithm, sb3_mbil.experts.SECOND_EXPERTS): --second-expert. The published baselines' subsampled data:
+--protocol published (sb3_mbil.benchmark.protocol).
 """
 
 import argparse
@@ -29,6 +31,10 @@ def main(argv=None):
     p.add_argument("--pool", default=None,
                    help="draw the trajectories from this pool (.npz, shipped pool name or minari:<dataset id>) "
                         "instead of each env's shipped pool; one env only")
+    p.add_argument("--second-expert", action="store_true",
+                   help="draw from each env's second expert pool (another RL Zoo algorithm) instead of the first")
+    p.add_argument("--protocol", default="full", choices=["full", "published"],
+                   help="full trajectories, or every k-th step at each algorithm's published rate")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
@@ -36,15 +42,26 @@ def main(argv=None):
     a = p.parse_args(argv)
     if a.pool is not None and len(a.envs) != 1:
         raise ValueError(f"--pool: expected one env with a pool of your own, found --envs {' '.join(a.envs)}")
+    if a.pool is not None and a.second_expert:
+        raise ValueError("--pool, --second-expert: expected one of them, found both")
+    pool = a.pool
+    if a.second_expert:
+        from sb3_mbil.common.demonstrations import pool_name
+        from sb3_mbil.experts import SECOND_EXPERTS
+
+        missing = [e for e in a.envs if e not in SECOND_EXPERTS]
+        if missing:
+            raise ValueError(f"--second-expert: expected envs with a second expert {sorted(SECOND_EXPERTS)}, found {missing}")
+        pool = {e: pool_name(e, SECOND_EXPERTS[e]) for e in a.envs}
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     from sb3_mbil.benchmark.grid import make_grid
     from sb3_mbil.benchmark.runner import run_local, run_ray
 
     grid = make_grid(a.algos, a.envs, a.n_trajectories, a.seeds)
     if a.local:
-        n = run_local(grid, a.csv, a.episodes, a.overrides, pool=a.pool)
+        n = run_local(grid, a.csv, a.episodes, a.overrides, pool=pool, protocol=a.protocol)
     else:
-        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus, pool=a.pool)
+        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus, pool=pool, protocol=a.protocol)
     print(f"{n} runs done now; results in {a.csv}")
 
 

@@ -32,6 +32,20 @@ def test_local_grid_appends_rows_and_resumes(tmp_path):
     assert rows[1]["n_episodes"] == "3" and rows[1]["gradient_steps"] == "20"
 
 
+def test_published_protocol_and_second_expert_are_named_in_the_rows(tmp_path):
+    from sb3_mbil.common.demonstrations import available_pools
+
+    out = tmp_path / "p.csv"
+    grid = make_grid(["bc", "mbil"], ["CartPole-v1"], [1], [0])
+    pool = {"CartPole-v1": "CartPole-v1-ppo"} if "CartPole-v1-ppo" in available_pools() else None
+    assert run_local(grid, str(out), n_episodes=2, overrides=TINY, pool=pool, protocol="published") == 2
+    for row in rows_of(out):
+        assert row["protocol"] == "published"
+        assert "('every', 20)" in row["settings"] and "('protocol', 'published')" in row["settings"]
+        if pool:
+            assert "('expert_pool', 'CartPole-v1-ppo')" in row["settings"]
+
+
 def test_ray_grid(tmp_path):
     out = tmp_path / "r.csv"
     grid = [Run("mbil", "CartPole-v1", 1, 0), Run("bc", "CartPole-v1", 1, 0)]

@@ -12,13 +12,12 @@ from stable_baselines3 import DQN
 
 from sb3_mbil import load_demonstrations
 from sb3_mbil.common.demonstrations import available_pools
-from sb3_mbil.experts import EXPERTS, generate_demonstrations, get_expert, load_expert_file
+from sb3_mbil.experts import EXPERTS, SECOND_EXPERTS, generate_demonstrations, get_expert, load_expert_file
 
 # Shipped pools: the acceptance thresholds of their experts, and their size.
 SHIPPED = {env: spec.min_return for env, spec in EXPERTS.items()}
 POOL_SIZE = {"CartPole-v1": 1000, "Acrobot-v1": 1000, "LunarLander-v3": 1000}  # MuJoCo pools: 50 trajectories
-#: each classic-control env's second expert (another RL Zoo algorithm), pool "<env>-<algo>"
-SECOND_POOLS = {"CartPole-v1": "ppo", "LunarLander-v3": "dqn", "Acrobot-v1": "dqn"}
+SECOND_POOLS = SECOND_EXPERTS  # each classic-control env's second expert, pool "<env>-<algo>"
 
 
 @pytest.fixture(scope="module")

@@ -151,7 +151,7 @@ def _write(tmp_path, **overrides):
     (dict(terminated=np.array([True, False])), "terminated: expected 1 entries"),
     (dict(terminated=np.array(["False"])), "terminated: expected booleans"),
     (dict(truncated=np.array([2])), "truncated: expected booleans"),
-    (dict(format_version=np.array(99)), "format_version: expected an integer <= 1"),
+    (dict(format_version=np.array(99)), "format_version: expected an integer <= 2"),
 ])
 def test_every_field_of_a_data_file_is_validated_with_its_path(tmp_path, overrides, message):
     path = _write(tmp_path, **overrides)

@@ -17,6 +17,8 @@ RESULT_COLUMNS = [
     "flow_fit_seconds", "gradient_steps", "settings", "commit",
     # MBIL diagnostics: mean balance target (log P - log T), held-out log-likelihoods, chosen noise
     "target_mean", "p_heldout_ll", "transition_heldout_ll", "next_action_noise",
+    # the data protocol (sb3_mbil.benchmark.protocol); files written before it have full-trajectory rows only
+    "protocol",
 ]
 KEY_COLUMNS = ("algo", "env", "n_trajectories", "seed")
 
@@ -79,22 +81,28 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
 
 
 def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]] | None = None, commit: str | None = None,
-            n_eval_envs: int = 20, pool: str | None = None) -> dict[str, Any]:
+            n_eval_envs: int = 20, pool: str | None = None, protocol: str = "full") -> dict[str, Any]:
     """Train and evaluate one (algo, env, N, seed); returns the result row.
 
     ``overrides``: per algorithm, settings that replace the tuned ones (``{"mbil": {"alpha": 0.1}}``).
     ``pool``: draw the trajectories from this pool (a ``.npz`` path, a shipped pool name or ``minari:<id>``)
     instead of the env's shipped pool; then an env without zoo settings runs with the constructor's defaults.
+    ``protocol``: ``"full"`` trajectories or the ``"published"`` baselines' subsampling
+    (:mod:`sb3_mbil.benchmark.protocol`), named in the row's ``protocol`` and ``settings``.
     """
     import torch as th
 
-    from sb3_mbil import ALGORITHMS, load_demonstrations
+    from sb3_mbil import ALGORITHMS
+    from sb3_mbil.benchmark.protocol import demonstrations_for
     from sb3_mbil.common.evaluation import evaluate
 
     th.set_num_threads(1)
     settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
-    demos = load_demonstrations(pool or run.env).sample(run.n_trajectories, seed=run.seed)
+    demos = demonstrations_for(run.algo, run.env, run.n_trajectories, run.seed, protocol, pool)
+    data = {"expert_pool": str(pool)} if pool else {}
+    if protocol != "full":
+        data.update(protocol=protocol, every=demos.metadata["subsampled"]["every"])
     t0 = time.perf_counter()
     model = ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     model.learn(steps)
@@ -118,7 +126,8 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
         "train_seconds": round(train_seconds, 1),
         "flow_fit_seconds": round(fit_seconds, 1),  # MBIL's flows, MBIL-C's P and T
         "gradient_steps": steps,
-        "settings": repr(sorted({**settings, "n_timesteps": steps, **({"expert_pool": str(pool)} if pool else {})}.items())),
+        "settings": repr(sorted({**settings, "n_timesteps": steps, **data}.items())),
         "commit": commit or git_commit(),
+        "protocol": protocol,
         **diagnostics,
     }

@@ -21,19 +21,25 @@ def pending(runs: list[Run], csv_path: str) -> list[Run]:
     return [r for r in runs if r.key() not in done]
 
 
+def _pool(pool: str | dict[str, str] | None, run: Run) -> str | None:
+    """One pool for every run, or one per env (``{env: pool}``, e.g. each env's second expert)."""
+    return pool.get(run.env) if isinstance(pool, dict) else pool
+
+
 def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
-              pool: str | None = None) -> int:
+              pool: str | dict[str, str] | None = None, protocol: str = "full") -> int:
     """Without Ray, one run after the other (for debugging)."""
     todo, commit = pending(runs, csv_path), git_commit()
     for run in todo:
-        row = run_one(run, n_episodes, overrides, commit, pool=pool)
+        row = run_one(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol)
         append_row(csv_path, row, RESULT_COLUMNS)
         logger.info("%s", row)
     return len(todo)
 
 
 def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
-            address: str | None = None, num_cpus: int | None = None, pool: str | None = None) -> int:
+            address: str | None = None, num_cpus: int | None = None, pool: str | dict[str, str] | None = None,
+            protocol: str = "full") -> int:
     """The grid as Ray tasks; returns the number of runs done now."""
     import ray
 
@@ -47,7 +53,8 @@ def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: di
         ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False, runtime_env={"env_vars": env_vars},
                  log_to_driver=False)
     task = ray.remote(num_cpus=1, max_retries=1)(run_one)
-    futures = {task.remote(run, n_episodes, overrides, commit, pool=pool): run for run in todo}
+    futures = {task.remote(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol): run
+               for run in todo}
     done = 0
     try:
         while futures:

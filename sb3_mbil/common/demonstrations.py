@@ -27,7 +27,7 @@ from typing import Any, Union
 import numpy as np
 from gymnasium import spaces
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: optional final actions of trajectory pieces
 _REQUIRED_KEYS = ("observations", "actions", "n_observations", "n_actions", "terminated", "truncated")
 
 
@@ -62,6 +62,8 @@ class Trajectory:
     :param terminated: whether the episode ended in a terminal state after the last action
     :param truncated: whether the episode was cut by a time limit after the last action
     :param episode_return: the episode's return when known (``nan`` otherwise)
+    :param final_action: the expert's action at the final observation, when the trajectory is a piece cut from a
+        longer episode (:meth:`Demonstrations.subsample`); it completes one more ``(s, a, s', a')`` tuple
     """
 
     observations: np.ndarray
@@ -69,6 +71,7 @@ class Trajectory:
     terminated: bool = False
     truncated: bool = False
     episode_return: float = float("nan")
+    final_action: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         obs = np.asarray(self.observations)
@@ -84,6 +87,16 @@ class Trajectory:
             )
         _ensure_finite("observations", obs)
         _ensure_finite("actions", act)
+        if self.final_action is not None:
+            final = np.asarray(self.final_action)
+            _ensure_numeric("final_action", final)
+            _ensure_finite("final_action", final)
+            if final.shape != act.shape[1:]:
+                raise ValueError(f"final_action: expected the shape of one action {act.shape[1:]}, found {final.shape}")
+            if len(obs) != len(act) + 1:
+                raise ValueError(f"final_action: expected the final observation too ({len(act) + 1} observations), "
+                                 f"found {len(obs)}")
+            object.__setattr__(self, "final_action", final)
         object.__setattr__(self, "observations", obs)
         object.__setattr__(self, "actions", act)
         object.__setattr__(self, "terminated", bool(self.terminated))
@@ -164,6 +177,40 @@ class Demonstrations:
         meta["sampled"] = {"n": int(n), "seed": seed, "indices": [int(i) for i in idx]}
         return Demonstrations([self.trajectories[i] for i in idx], meta)
 
+    def subsample(self, every: int, offset: int = 0) -> Demonstrations:
+        """Keep every ``every``-th step of each trajectory, from step ``offset`` (the published baselines' data
+        protocol: EDM's and IQ-Learn's codes keep every 20th or 5th step).
+
+        Each kept step t becomes its own one-step piece: ``(s_t, a_t)``, its true successor ``s_{t+1}`` and the
+        expert's ``a_{t+1}`` as the piece's ``final_action``, so (s, a, s') and (s, a, s', a') are true one-step
+        samples and never join two episodes or two kept steps. A kept last step keeps the episode's end
+        (``terminated`` / ``truncated``) and, without a following action, forms a transition but no tuple.
+        ``every=1`` keeps every step (still as pieces).
+        """
+        from sb3_mbil.common.validation import check_int
+
+        every = check_int("every", every, low=1)
+        offset = check_int("offset", offset, low=0)
+        if offset >= every:
+            raise ValueError(f"offset: expected an integer in [0, {every - 1}] for every={every}, found {offset}")
+        pieces = []
+        for traj in self.trajectories:
+            n = len(traj)
+            for t in range(offset, n, every):
+                last = t == n - 1
+                has_next_obs = t + 1 < len(traj.observations)
+                pieces.append(Trajectory(
+                    traj.observations[t : t + 2] if has_next_obs else traj.observations[t : t + 1],
+                    traj.actions[t : t + 1],
+                    terminated=traj.terminated and last, truncated=traj.truncated and last,
+                    final_action=None if last else traj.actions[t + 1]))
+        if not pieces:
+            raise ValueError(f"offset: expected a step to keep, found none (offset {offset}, lengths "
+                             f"{self.episode_lengths.tolist()[:10]})")
+        meta = dict(self.metadata)
+        meta["subsampled"] = {"every": every, "offset": offset, "n_episodes": len(self), "n_steps": self.n_steps}
+        return Demonstrations(pieces, meta)
+
     def provenance(self) -> dict[str, Any]:
         """Where these trajectories came from, in plain types (saved with a model; named in its Hub model card)."""
         meta, sampled = self.metadata, self.metadata.get("sampled") or {}
@@ -212,20 +259,23 @@ class Demonstrations:
         }
 
     def tuples(self) -> dict[str, np.ndarray]:
-        """Consecutive ``(s, a, s', a')`` inside each trajectory (``T - 1`` per trajectory)."""
+        """Consecutive ``(s, a, s', a')`` inside each trajectory (``T - 1`` per trajectory, ``T`` with a
+        ``final_action``)."""
         obs, act, nxt, nxt_act, traj_index = [], [], [], [], []
         for i, t in enumerate(self.trajectories):
-            n = len(t) - 1
+            n = len(t) - 1 + (t.final_action is not None)
             if n <= 0:
                 continue
             obs.append(t.observations[:n])
             act.append(t.actions[:n])
             nxt.append(t.observations[1 : n + 1])
-            nxt_act.append(t.actions[1 : n + 1])
+            nxt_act.append(t.actions[1 : n + 1] if t.final_action is None else
+                           np.concatenate([t.actions[1:], t.final_action[None]]))
             traj_index.append(np.full(n, i, dtype=np.int64))
         if not obs:
             raise ValueError(
-                "trajectories: expected at least one trajectory with 2 or more actions to form (s, a, s', a') tuples, "
+                "trajectories: expected at least one trajectory with 2 or more actions (or a final action) to form "
+                "(s, a, s', a') tuples, "
                 f"found lengths {self.episode_lengths.tolist()[:10]}"
             )
         return {
@@ -274,7 +324,7 @@ class Demonstrations:
             path = path.with_suffix(path.suffix + ".npz") if path.suffix else path.with_suffix(".npz")
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {
-            "format_version": np.array(FORMAT_VERSION),
+            "format_version": np.array(1),
             "observations": np.concatenate([t.observations for t in self.trajectories]),
             "actions": np.concatenate([t.actions for t in self.trajectories]),
             "n_observations": np.array([len(t.observations) for t in self.trajectories], dtype=np.int64),
@@ -284,6 +334,11 @@ class Demonstrations:
             "episode_returns": self.episode_returns,
             "metadata_json": np.array(json.dumps(self.metadata, sort_keys=True, default=str)),
         }
+        finals = [t.final_action for t in self.trajectories if t.final_action is not None]
+        if finals:  # pieces of longer episodes (format 2; a format-1 reader refuses the file instead of losing them)
+            arrays["format_version"] = np.array(2)
+            arrays["has_final_action"] = np.array([t.final_action is not None for t in self.trajectories], dtype=bool)
+            arrays["final_actions"] = np.stack(finals)
         from sb3_mbil.common.files import atomic_write
 
         with atomic_write(path) as tmp, open(tmp, "wb") as f:
@@ -414,6 +469,12 @@ class Demonstrations:
                 raise ValueError(f"{path}: metadata_json: expected a JSON object, found {type(meta).__name__}")
         if len(returns) != n:
             raise ValueError(f"{path}: episode_returns: expected {n} entries (one per trajectory), found {len(returns)}")
+        has_final = arrays.get("has_final_action", np.zeros(n, dtype=bool))
+        finals = arrays.get("final_actions", np.zeros((0, *arrays["actions"].shape[1:]), arrays["actions"].dtype))
+        if has_final.shape != (n,) or has_final.dtype != bool or int(has_final.sum()) != len(finals):
+            raise ValueError(f"{path}: has_final_action / final_actions: expected {n} booleans and one final action per "
+                             f"True, found shapes {has_final.shape} and {finals.shape}")
+        final_of = dict(zip(np.flatnonzero(has_final).tolist(), finals))
         obs_splits = np.split(arrays["observations"], np.cumsum(n_obs)[:-1])
         act_splits = np.split(arrays["actions"], np.cumsum(n_act)[:-1])
         trajs = []
@@ -426,6 +487,7 @@ class Demonstrations:
                         terminated=bool(arrays["terminated"][i]),
                         truncated=bool(arrays["truncated"][i]),
                         episode_return=float(returns[i]),
+                        final_action=final_of.get(i),
                     )
                 )
             except ValueError as e:

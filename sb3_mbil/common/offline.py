@@ -289,7 +289,10 @@ class OfflineAlgorithm(BaseAlgorithm):
         """Every consecutive expert (s, a, s', a') inside a trajectory as tensors (cached)."""
         if TupleSamples not in self._expert_cache:
             demos = self.demonstrations()
-            short = [i for i, t in enumerate(demos) if len(t) < 2]
+            # a one-step trajectory forms no tuple, unless it is a piece that knows the next action (subsample)
+            short = [i for i, t in enumerate(demos) if len(t) < 2 and t.final_action is None]
+            if "subsampled" in demos.metadata and len(short) < len(demos):  # kept last steps of episodes
+                short = []
             if short:
                 raise ValueError(
                     f"expert_data: expected trajectories of 2 or more steps ({type(self).__name__} needs consecutive "

@@ -2,6 +2,7 @@
 
 from sb3_mbil.experts.generate import (
     EXPERTS,
+    SECOND_EXPERTS,
     Expert,
     ExpertSpec,
     evaluate_expert,
@@ -15,6 +16,7 @@ from sb3_mbil.experts.generate import (
 
 __all__ = [
     "EXPERTS",
+    "SECOND_EXPERTS",
     "Expert",
     "ExpertSpec",
     "evaluate_expert",

@@ -76,6 +76,11 @@ EXPERTS: dict[str, ExpertSpec] = {
 }
 
 
+#: each classic-control env's second expert (another RL Zoo algorithm than the paper's), shipped as the pool
+#: ``"<env>-<algo>"`` (``load_demonstrations(env, expert=algo)``): experts differ in how easy they are to imitate
+SECOND_EXPERTS: dict[str, str] = {"CartPole-v1": "ppo", "Acrobot-v1": "dqn", "LunarLander-v3": "dqn"}
+
+
 def cache_dir() -> Path:
     return Path(os.environ.get("SB3_MBIL_CACHE", Path.home() / ".cache" / "sb3_mbil"))
 

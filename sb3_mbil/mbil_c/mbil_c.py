@@ -295,17 +295,23 @@ class MBILC(OfflineAlgorithm):
         self._cache = None
         return report
 
-    def _predecessors(self) -> th.Tensor:
-        """For every expert pair (s, a), the index of the tuple whose s' it is (-1 at a trajectory's first step)."""
-        out, n_tuples = [], 0
-        for length in self.demonstrations().episode_lengths:
-            length = int(length)
+    def _predecessors(self) -> tuple[th.Tensor, th.Tensor]:
+        """For every expert pair (s, a), the index of the tuple whose s' it is (-1 at a trajectory's first step); and
+        the tuples whose s' is no expert pair's state (the last tuple of a piece with a ``final_action``, e.g. every
+        tuple of subsampled data), whose s' the policy is evaluated at separately."""
+        out, orphans, n_tuples = [], [], 0
+        for traj in self.demonstrations():
+            length = len(traj)
             prev = np.full(length, -1, dtype=np.int64)
             if length >= 2:
                 prev[1:] = n_tuples + np.arange(length - 1)
                 n_tuples += length - 1
+            if traj.final_action is not None:
+                orphans.append(n_tuples)
+                n_tuples += 1
             out.append(prev)
-        return th.as_tensor(np.concatenate(out), device=self.device)
+        return (th.as_tensor(np.concatenate(out), device=self.device),
+                th.as_tensor(np.asarray(orphans, dtype=np.int64), device=self.device))
 
     @th.no_grad()
     def balance_targets(self) -> dict[str, th.Tensor]:
@@ -320,11 +326,21 @@ class MBILC(OfflineAlgorithm):
             raise RuntimeError("the models are not fitted yet: call fit_models() or learn()")
         s, a, s_next, _ = self.expert_tuples()
         model = self.balance_model
-        prev = self._predecessors()
+        prev, orphans = self._predecessors()
         has = prev >= 0
         data = model.next_action_distribution(s, a, s_next)
         n_pairs = len(prev)
-        cache: dict[str, Any] = {"has_target": has, "weight": has.float() / has.float().mean().clamp(min=1e-12)}
+        # the balance term is the mean over all tuples: those whose s' is a pair's state (in the BC minibatch, weight
+        # 1 on pairs with a predecessor) and the orphans (their own minibatch), in proportion to their numbers
+        n_inner, n_orphan = int(has.sum()), len(orphans)
+        cache: dict[str, Any] = {"has_target": has, "weight": has.float() / has.float().mean().clamp(min=1e-12),
+                                 "inner_share": n_inner / max(n_inner + n_orphan, 1)}
+        if n_orphan:
+            a_next_all = self.expert_tuples().next_actions
+            cache["orphan_states"] = s_next[orphans]
+            cache["orphan_target"] = tuple(d[orphans] for d in data)
+            if self.anchor_to_data:
+                cache["orphan_target"] = (a_next_all[orphans].view(n_orphan, -1), cache["orphan_target"][1])
         cache["data"] = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
                                                                                                d[prev[has]]) for d in data)
         if model.discrete:  # KL(P || pi) = sum P log P - sum P log pi: the first sum once per pair
@@ -407,11 +423,17 @@ class MBILC(OfflineAlgorithm):
         i = self._sample_indices(len(pairs.observations))
         use_model = self.alpha_model > 0 and len(cache["states"]) > 0
         j = self._sample_indices(len(cache["states"])) if use_model else None
-        # one forward pass over the expert states s and the model states s~'
-        states = th.cat([pairs.observations[i], cache["states"][j]]) if use_model else pairs.observations[i]
-        heads = self.policy.heads(states)
+        use_orphans = self.alpha > 0 and "orphan_states" in cache
+        k = self._sample_indices(len(cache["orphan_states"])) if use_orphans else None
+        # one forward pass over the expert states s, the model states s~' and the orphan tuples' s'
+        states = [pairs.observations[i]] + ([cache["states"][j]] if use_model else []) \
+            + ([cache["orphan_states"][k]] if use_orphans else [])
+        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
         n = len(i)
         heads_s = [h[:n] for h in heads]
+        n_model = len(j) if use_model else 0
+        heads_model = [h[n:n + n_model] for h in heads]
+        heads_orphan = [h[n + n_model:] for h in heads]
         loss = th.zeros((), device=self.device)
 
         log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete else None  # once, for both terms
@@ -430,20 +452,24 @@ class MBILC(OfflineAlgorithm):
                 divergence = cache["neg_entropy"][i] - (cache["probs"][i] * log_pi).sum(dim=1)
             else:
                 divergence = balance_divergence(self._divergence, self.policy, [d[i] for d in cache["data"]], heads_s)
-            balance = (divergence * cache["weight"][i]).mean()
+            balance = (divergence * cache["weight"][i]).mean() if cache["inner_share"] > 0 else divergence.sum() * 0
+            if use_orphans:  # tuples whose s' is not an expert pair's state (subsampled data)
+                orphan = balance_divergence(self._divergence, self.policy, [d[k] for d in cache["orphan_target"]],
+                                            heads_orphan).mean()
+                balance = cache["inner_share"] * balance + (1 - cache["inner_share"]) * orphan
             loss = loss + self.alpha * balance
             self._record("train/balance_loss", balance)
 
         # Corrective labels (model_labels="corrective"): L_BC(pi) on the kept (s~, a~).
         if use_model and self.model_labels == "corrective":
-            corrective = bc_loss(self.policy, [h[n:] for h in heads], cache["model_actions"][j], self._bc_kind)
+            corrective = bc_loss(self.policy, heads_model, cache["model_actions"][j], self._bc_kind)
             loss = loss + self.alpha_model * corrective
             self._record("train/corrective_loss", corrective)
 
         # Balance at model states: D(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
         elif use_model:
             model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in cache["model"]],
-                                          [h[n:] for h in heads]).mean()
+                                          heads_model).mean()
             loss = loss + self.alpha_model * model_kl
             self._record("train/model_balance_loss", model_kl)
 

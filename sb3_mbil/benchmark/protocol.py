@@ -1,0 +1,45 @@
+"""The two data protocols of the benchmark.
+
+- ``full``: every step of each drawn trajectory (ours; the MBIL paper's own protocol for MBIL).
+- ``published``: what the published classic-control baseline curves used, each baseline's own code's data handling
+  (../shared/BASELINES.md section 0): every 20th step for BC, EDM and RCAL (EDM's code), IQ-Learn's own rates (every
+  20th step on CartPole, every 5th on Acrobot and LunarLander), full trajectories for AVRIL. DSFN's and ValueDICE's
+  classic-control data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps
+  as BC, each with its true successor (s', a'), so MBIL and BC see the same samples.
+
+Both protocols draw the same N trajectories for a seed (``Demonstrations.sample(N, seed)``); the published codes took
+the first N, or the block of N starting at the seed, which we do not copy: the draw is part of the comparison.
+"""
+
+from __future__ import annotations
+
+from sb3_mbil.common.demonstrations import Demonstrations, load_demonstrations
+from sb3_mbil.common.validation import check_choice
+
+PROTOCOLS = ("full", "published")
+
+#: keep every k-th step on the ``published`` protocol: per algorithm, one rate or a rate per env
+PUBLISHED_EVERY: dict[str, int | dict[str, int]] = {
+    "bc": 20, "edm": 20, "rcal": 20, "dsfn": 20, "valuedice": 20,
+    "iq_learn": {"CartPole-v1": 20, "Acrobot-v1": 5, "LunarLander-v3": 5},
+    "avril": 1,
+}
+#: the default for algorithms not listed (MBIL and its variants): BC's rate
+DEFAULT_EVERY = 20
+
+
+def published_every(algo: str, env_id: str) -> int:
+    """The step rate of ``algo`` on ``env_id`` in the published protocol (1 = full trajectories)."""
+    rate = PUBLISHED_EVERY.get(algo, DEFAULT_EVERY)
+    return int(rate.get(env_id, DEFAULT_EVERY)) if isinstance(rate, dict) else int(rate)
+
+
+def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, protocol: str = "full",
+                       pool: str | None = None) -> Demonstrations:
+    """The data one benchmark run trains on: N trajectories drawn with ``seed`` from the pool (the env's shipped
+    pool by default), whole (``full``) or subsampled at the algorithm's published rate (``published``)."""
+    protocol = check_choice("protocol", protocol, PROTOCOLS)
+    demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
+    if protocol == "full":
+        return demos
+    return demos.subsample(published_every(algo, env_id))

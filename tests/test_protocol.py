@@ -1,0 +1,102 @@
+"""The `published` data protocol: every k-th step of each trajectory, with true successors (Demonstrations.subsample)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch as th
+
+from sb3_mbil import ALGORITHMS, Demonstrations, Trajectory, load_demonstrations
+from sb3_mbil.benchmark.protocol import PROTOCOLS, demonstrations_for, published_every
+from sb3_mbil.robustness import native_demo, native_env
+
+
+def _labelled(lengths=(23, 9), terminated=(True, False)) -> Demonstrations:
+    """Observations encode (episode, step): obs = [episode, step]; action = 10 * episode + step (as a float)."""
+    trajs = []
+    for e, (n, term) in enumerate(zip(lengths, terminated)):
+        steps = np.arange(n + 1, dtype=np.float32)
+        obs = np.stack([np.full(n + 1, e, dtype=np.float32), steps], axis=1)
+        act = (10 * e + steps[:n]).reshape(-1, 1)
+        trajs.append(Trajectory(obs, act, terminated=term, truncated=not term))
+    return Demonstrations(trajs, {"env_id": "none"})
+
+
+@pytest.mark.parametrize("every, offset", [(20, 0), (5, 3), (1, 0)])
+def test_subsampling_keeps_true_successors_inside_episodes(every, offset):
+    demos = _labelled()
+    sub = demos.subsample(every, offset)
+    kept = [(e, t) for e, n in enumerate((23, 9)) for t in range(offset, n, every)]
+    pairs = sub.pairs()
+    assert [tuple(o) for o in pairs["observations"].astype(int)] == kept
+    np.testing.assert_array_equal(pairs["actions"][:, 0], [10 * e + t for e, t in kept])
+
+    tr = sub.transitions()
+    assert len(tr["observations"]) == len(kept)  # every kept step has its true next observation
+    np.testing.assert_array_equal(tr["next_observations"][:, 0], tr["observations"][:, 0])  # never across episodes
+    np.testing.assert_array_equal(tr["next_observations"][:, 1], tr["observations"][:, 1] + 1)  # one step on
+    last = [(e, t) == (e, n - 1) for (e, t), n in zip(kept, [(23, 9)[e] for e, _ in kept])]
+    np.testing.assert_array_equal(tr["dones"], [is_last and e == 0 for is_last, (e, _) in zip(last, kept)])
+
+    tu = sub.tuples()
+    inner = [(e, t) for (e, t), is_last in zip(kept, last) if not is_last]  # a kept last step has no a'
+    assert [tuple(o) for o in tu["observations"].astype(int)] == inner
+    np.testing.assert_array_equal(tu["next_observations"][:, 1], tu["observations"][:, 1] + 1)
+    np.testing.assert_array_equal(tu["next_actions"][:, 0], tu["actions"][:, 0] + 1)  # the expert's true a'
+    assert sub.metadata["subsampled"] == {"every": every, "offset": offset, "n_episodes": 2, "n_steps": 32}
+
+
+def test_subsampled_data_round_trips_through_a_file(tmp_path):
+    sub = _labelled().subsample(4, 1)
+    back = Demonstrations.load(sub.save(tmp_path / "sub.npz"))
+    for key in ("observations", "next_observations", "next_actions"):
+        np.testing.assert_array_equal(back.tuples()[key], sub.tuples()[key])
+    np.testing.assert_array_equal(back.transitions()["dones"], sub.transitions()["dones"])
+
+
+def test_subsample_refuses_bad_arguments():
+    demos = _labelled()
+    with pytest.raises(ValueError, match="every: expected"):
+        demos.subsample(0)
+    with pytest.raises(ValueError, match=r"offset: expected an integer in \[0, 4\]"):
+        demos.subsample(5, 5)
+    with pytest.raises(ValueError, match="final_action: expected the shape of one action"):
+        Trajectory(np.zeros((2, 2)), np.zeros((1, 1)), final_action=np.zeros(3))
+
+
+def test_published_rates_follow_the_reference_codes():
+    assert published_every("bc", "LunarLander-v3") == 20
+    assert published_every("iq_learn", "CartPole-v1") == 20
+    assert published_every("iq_learn", "Acrobot-v1") == 5
+    assert published_every("avril", "CartPole-v1") == 1
+    assert published_every("mbil", "Acrobot-v1") == published_every("bc", "Acrobot-v1")
+    full = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="full")
+    pub = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published")
+    assert full.metadata["sampled"]["indices"] == pub.metadata["sampled"]["indices"]  # the same draw
+    assert pub.n_steps == sum((n + 19) // 20 for n in full.episode_lengths)
+    assert set(PROTOCOLS) == {"full", "published"}
+    with pytest.raises(ValueError, match="protocol: expected one of"):
+        demonstrations_for("bc", "CartPole-v1", 1, seed=0, protocol="every-other")
+
+
+@pytest.mark.parametrize("name", sorted(ALGORITHMS))
+def test_every_algorithm_trains_on_subsampled_data(name):
+    algo = ALGORITHMS[name]
+    env_id = native_env(algo)
+    demos = native_demo(algo, 2).subsample(5)
+    model = algo("MlpPolicy", env_id, expert_data=demos, seed=0, batch_size=16)
+    model.learn(30)
+    assert all(th.isfinite(p).all() for p in model.policy.parameters())
+    obs = demos.pairs()["observations"][:3]
+    assert model.predict(obs, deterministic=True)[0].shape[0] == 3
+
+
+def test_mbil_c_balances_at_the_true_successors_of_subsampled_steps():
+    demos = load_demonstrations("CartPole-v1").sample(1, seed=0).subsample(20)
+    model = ALGORITHMS["mbil_c"]("MlpPolicy", "CartPole-v1", expert_data=demos, seed=0)
+    model.learn(5)
+    cache = model.balance_targets()
+    assert not bool(cache["has_target"].any())  # no kept state is another kept step's successor
+    tuples = model.expert_tuples()
+    assert len(cache["orphan_states"]) == len(tuples.observations)
+    th.testing.assert_close(cache["orphan_states"], tuples.next_observations)
