@@ -4,6 +4,8 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 
     python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc
     python scripts/curve_summary.py results/mujoco.csv --paired-against bc --draws
+    python scripts/curve_summary.py results/tuning/baselines_hopper.csv results/tuning/bounded_mean.csv \
+        --variants iq_learn valuedice odice bc bc_tanh --envs Hopper-v4 --until 20000 --last 1 --paired-against bc
 """
 
 import argparse
@@ -19,6 +21,10 @@ def main(argv=None):
     p.add_argument("--draws", action="store_true", help="also the trajectories each seed drew (pool indices, mean return, steps)")
     p.add_argument("--heldout", action="store_true",
                    help="also: the return where the held-out BC loss was lowest (runs made with run_curves.py --holdout)")
+    p.add_argument("--variants", nargs="+", default=None, help="only these variants (the CSVs' algo column)")
+    p.add_argument("--envs", nargs="+", default=None, help="only these envs")
+    p.add_argument("--until", type=positive_int, default=None,
+                   help="only the evaluations up to this gradient step (compare runs of different lengths)")
     p.add_argument("--markdown", default=None, help="also write the tables here")
     p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
@@ -32,14 +38,21 @@ def main(argv=None):
             rows += read_result_rows(path)
         except (ValueError, FileNotFoundError) as e:
             p.error(f"csv: {e}")
+    if a.variants:
+        rows = [r for r in rows if r["algo"] in a.variants]
+    if a.envs:
+        rows = [r for r in rows if r["env"] in a.envs]
+    if a.until:
+        rows = [r for r in rows if int(float(r["gradient_step"])) <= a.until]
     if not rows:
-        p.error(f"csv: expected result rows, found none in {a.csv}")
+        p.error(f"csv: expected result rows, found none in {a.csv}" + (" for --variants/--envs/--until" if a.variants or a.envs or a.until else ""))
     try:
         expert = pool_experts(rows)
     except ValueError as e:
         p.error(str(e))
     commits = ", ".join(sorted({r["commit"] for r in rows}))
-    text = f"From {', '.join(f'`{c}`' for c in a.csv)} (commits: {commits}); expert = mean return of the pool the runs drew from.\n\n"
+    text = f"From {', '.join(f'`{c}`' for c in a.csv)} (commits: {commits}); expert = mean return of the pool the runs drew from"
+    text += (f"; evaluations up to gradient step {a.until}" if a.until else "") + ".\n\n"
     text += curve_table(rows, expert, last=a.last)
     if a.paired_against:
         text += "\n\n" + paired_table(rows, a.paired_against, last=a.last)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -223,7 +224,11 @@ def pool_experts(rows: list[dict]) -> dict[str, float]:
 
     pools: dict[str, set] = {}
     for r in rows:
-        settings = dict(ast.literal_eval(r["settings"])) if r.get("settings") else {}
+        try:
+            settings = dict(ast.literal_eval(r["settings"])) if r.get("settings") else {}
+        except (ValueError, SyntaxError):  # a setting whose repr is no literal (a class in policy_kwargs)
+            found = re.search(r"\('expert_pool', '([^']*)'\)", r["settings"])
+            settings = {"expert_pool": found.group(1)} if found else {}
         pools.setdefault(r["env"], set()).add(settings.get("expert_pool") or r["env"])
     expert = {}
     for env, names in sorted(pools.items()):
