@@ -6,7 +6,7 @@
 import argparse
 
 from sb3_mbil.benchmark.cli import check_output, run
-from sb3_mbil.benchmark.report import aggregate, paired, plot, read_rows, table
+from sb3_mbil.benchmark.report import aggregate, paired, plot, probability_of_improvement, read_rows, table
 
 
 def main(argv=None):
@@ -24,13 +24,21 @@ def main(argv=None):
         p.error(f"--csv: {e}")
     plot(rows, a.out)
     commits = sorted({r.get("commit", "") for r in rows})
+    algos = sorted({r["algo"] for r in rows})
     lines = [f"Results of {len(rows)} runs from `{a.csv}` (commits: {', '.join(commits)}); mean +- std over seeds "
-             "(number of seeds), each seed the average return of its evaluation episodes.", table(rows), paired(rows),
-             "\nNormalised score (0 = random, 1 = expert), over all (env, N) cells with results for every algorithm; "
-             "95% stratified bootstrap confidence intervals (rliable):\n"]
+             "(number of seeds), each seed the average return of its evaluation episodes.", table(rows)]
+    lines += [paired(rows, algo, "bc") for algo in algos if algo != "bc" and "bc" in algos]
+    lines.append("\nNormalised score (0 = random, 1 = expert), over all (env, N) cells with results for every algorithm; "
+                 "95% stratified bootstrap confidence intervals (rliable):\n")
     for algo, s in aggregate(rows).items():
         lines.append(f"- {algo}: IQM {s['iqm'][0]:.3f} [{s['iqm'][1]:.3f}, {s['iqm'][2]:.3f}], "
                      f"mean {s['mean'][0]:.3f} [{s['mean'][1]:.3f}, {s['mean'][2]:.3f}]")
+    improvement = probability_of_improvement(rows, "bc")
+    if improvement:
+        lines.append("\nProbability of improvement over BC (rliable: the chance that a run of the algorithm beats a run "
+                     "of BC on the same (env, N) task, averaged over the tasks; 0.5 = level), 95% stratified bootstrap interval:\n")
+        for algo, (point, lo, hi) in improvement.items():
+            lines.append(f"- {algo}: {point:.3f} [{lo:.3f}, {hi:.3f}]")
     lines.append(f"\nPlot: `{a.out}`; made with `python scripts/plot_results.py --csv {a.csv} --out {a.out}`.")
     text = "\n".join(lines)
     print(text)

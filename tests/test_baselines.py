@@ -164,6 +164,32 @@ def test_iq_learn_critic_stays_finite_and_ranks_expert_actions_first(env_id, ste
         assert seen[-1]["train/q_expert"] - seen[-1]["train/q_random"] > 1.0
 
 
+@pytest.mark.parametrize("name, env_id, keys", [
+    ("valuedice", "CartPole-v1", ("train/objective", "train/nu_expert", "train/nu_initial")),
+    ("odice", "Pendulum-v1", ("train/value_forward", "train/value_backward", "train/weight_mean")),
+])
+def test_dice_critics_stay_finite_over_10000_updates(name, env_id, keys, cartpole_data, pendulum_data):
+    """Strictly offline, the DICE critics (nu, V) stay finite and bounded over 10 000 updates."""
+    from stable_baselines3.common.logger import KVWriter, Logger
+
+    data = {"CartPole-v1": cartpole_data, "Pendulum-v1": pendulum_data}[env_id]
+    small = {"odice": dict(policy_kwargs=dict(net_arch=[64, 64]), value_arch=[64, 64]),  # the reference's Discrete sizes
+             "valuedice": dict(policy_kwargs=dict(net_arch=[64, 64]), nu_arch=[64, 64], batch_size=64)}[name]
+    model = ALGORITHMS[name]("MlpPolicy", env_id, expert_data=data, seed=0, **small)
+    seen = []
+
+    class Recorder(KVWriter):
+        def write(self, key_values, key_excluded, step=0):
+            seen.append(dict(key_values))
+
+    model.set_logger(Logger(None, [Recorder()]))
+    model.learn(10_000, log_interval=1000)
+    assert len(seen) == 10
+    for row in seen:
+        for key in keys:
+            assert np.isfinite(row[key]) and abs(row[key]) < 1e4, (key, row)
+
+
 def test_valuedice_absorbing_states_and_orthogonal_regulariser():
     """A terminated episode leads to the absorbing state, which leads to itself with the zero action; a time-limit
     end bootstraps; the orthogonal regulariser is 0 for orthogonal weights and positive otherwise."""

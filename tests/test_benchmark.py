@@ -78,6 +78,19 @@ def test_report(tmp_path):
     assert (tmp_path / "fig.png").stat().st_size > 1000
 
 
+def test_probability_of_improvement_over_bc():
+    from sb3_mbil.benchmark.report import probability_of_improvement
+
+    rows = [{"algo": algo, "env": env, "n_trajectories": 1, "seed": seed, "settings": "",
+             "mean_return": base + {"bc": 0.0, "better": 50.0, "level": 0.0}[algo] + seed}
+            for algo in ("bc", "better", "level") for env, base in (("CartPole-v1", 200.0), ("Acrobot-v1", -150.0))
+            for seed in range(5)]
+    p = probability_of_improvement(rows, "bc", reps=200)
+    assert set(p) == {"better", "level"}
+    assert p["better"][0] > 0.9 and p["better"][1] <= p["better"][0] <= p["better"][2]
+    assert abs(p["level"][0] - 0.5) < 1e-9
+
+
 def test_unknown_env_is_refused():
     from sb3_mbil.benchmark.grid import tuned_settings
 

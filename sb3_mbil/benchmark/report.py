@@ -33,9 +33,15 @@ def read_rows(path: str) -> list[dict]:
     return rows
 
 
-def expert_returns(envs) -> dict[str, float]:
+def expert_returns(envs, rows=None) -> dict[str, float]:
+    """Per env, the mean return of the pool the runs drew from (``rows``' ``expert_pool`` setting; the env's shipped
+    pool without rows or without the setting)."""
     from sb3_mbil import load_demonstrations
 
+    if rows:
+        from sb3_mbil.benchmark.curves import pool_experts
+
+        return pool_experts(rows)
     return {e: float(load_demonstrations(e).episode_returns.mean()) for e in envs}
 
 
@@ -51,7 +57,7 @@ def table(rows) -> str:
     envs = sorted({r["env"] for r in rows})
     algos = sorted({r["algo"] for r in rows})
     ns = sorted({r["n_trajectories"] for r in rows})
-    expert = expert_returns(envs)
+    expert = expert_returns(envs, rows)
     lines = []
     for env in envs:
         lines.append(f"\n{env} (expert {expert[env]:.1f}, random {RANDOM_RETURN.get(env, float('nan')):.0f})\n")
@@ -72,7 +78,7 @@ def table(rows) -> str:
 def normalised_scores(rows) -> dict[str, np.ndarray]:
     """Per algorithm: (runs x tasks) matrix of (return - random) / (expert - random); tasks = (env, N)."""
     envs = sorted({r["env"] for r in rows})
-    expert = expert_returns(envs)
+    expert = expert_returns(envs, rows)
     g = grouped(rows)
     tasks = sorted({(e, n) for (_, e, n) in g})
     out = {}
@@ -145,6 +151,46 @@ def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
     fig.tight_layout()
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     fig.savefig(path, dpi=120)
+
+
+def paired_scores(rows, algo: str, reference: str = "bc") -> tuple[np.ndarray, np.ndarray] | None:
+    """Normalised scores of ``algo`` and ``reference`` on the seeds both ran, (seeds x tasks) each, over the tasks
+    (env, N) where both have the same seeds; None when they share no task."""
+    envs = sorted({r["env"] for r in rows})
+    expert = expert_returns(envs, rows)
+    runs = defaultdict(dict)
+    for r in rows:
+        runs[(r["env"], r["n_trajectories"])].setdefault(r["algo"], {})[r["seed"]] = r["mean_return"]
+    cols_a, cols_b = [], []
+    for (env, _), by_algo in sorted(runs.items()):
+        if algo not in by_algo or reference not in by_algo:
+            continue
+        seeds = sorted(set(by_algo[algo]) & set(by_algo[reference]))
+        scale = expert[env] - RANDOM_RETURN[env]
+        cols_a.append([(by_algo[algo][s] - RANDOM_RETURN[env]) / scale for s in seeds])
+        cols_b.append([(by_algo[reference][s] - RANDOM_RETURN[env]) / scale for s in seeds])
+    if not cols_a:
+        return None
+    k = min(len(c) for c in cols_a)
+    return np.array([c[:k] for c in cols_a]).T, np.array([c[:k] for c in cols_b]).T
+
+
+def probability_of_improvement(rows, reference: str = "bc", reps: int = 2000) -> dict[str, tuple[float, float, float]]:
+    """P(algo > reference) over the shared (env, N) tasks, with its stratified-bootstrap 95% interval (rliable's
+    ``probability_of_improvement``: the chance that a run of ``algo`` beats a run of ``reference`` on the same task,
+    ties counted half, averaged over the tasks)."""
+    from rliable import library as rly
+    from rliable import metrics
+
+    pairs = {}
+    for algo in sorted({r["algo"] for r in rows} - {reference}):
+        scores = paired_scores(rows, algo, reference)
+        if scores is not None and scores[0].shape[0] >= 2:
+            pairs[algo] = scores
+    if not pairs:
+        return {}
+    point, ci = rly.get_interval_estimates(pairs, metrics.probability_of_improvement, reps=reps)
+    return {a: (float(np.squeeze(point[a])), float(np.squeeze(ci[a][0])), float(np.squeeze(ci[a][1]))) for a in pairs}
 
 
 def paired(rows, a: str = "mbil", b: str = "bc") -> str:
