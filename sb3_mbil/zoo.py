@@ -55,13 +55,14 @@ def _common(trial, lr_range: tuple[float, float] = (1e-4, 3e-3)) -> dict[str, An
 
 
 def sample_mbil_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for MBIL: balance and BC weights, policy learning rate and size, flow noise and size."""
+    """Sampler for MBIL: balance and BC weights, policy learning rate and size, flow noise and size, estimator."""
     params = _common(trial)
     params["alpha"] = trial.suggest_float("alpha", 1e-3, 10.0, log=True)
     params["beta"] = trial.suggest_float("beta", 1e-3, 10.0, log=True)
     params["noise"] = trial.suggest_categorical("noise", ["auto", 0.01, 0.03, 0.1, 0.3])
     params["flow_hidden"] = trial.suggest_categorical("flow_hidden", list(FLOW_HIDDEN))
     params["flow_transforms"] = trial.suggest_int("flow_transforms", 2, 6)
+    params["estimator"] = trial.suggest_categorical("estimator", ["factored", "joint"])
     return convert_mbil_params(params)
 
 

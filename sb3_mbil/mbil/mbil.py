@@ -9,7 +9,8 @@ The first expectation is the squared *balance residual* over consecutive expert 
 (s, a, s', a'). P and T are fitted once by maximum likelihood before the policy is trained
 and then frozen, so the balance target ``log P - log T`` is computed once per tuple and kept
 (see :mod:`sb3_mbil.mbil.policies` for how P and T are modelled so that the target is in the
-same measure as pi).
+same measure as pi). ``estimator="joint"`` is the paper's literal estimator instead: a flow over
+the joint (s', a') for P and a separate flow for T, the target their difference.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.flows import EVAL_CHUNK, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
-from sb3_mbil.common.validation import check_bool, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
 from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
 
 
@@ -67,6 +68,13 @@ class MBIL(OfflineAlgorithm):
     :param validation_fraction: share of tuples (in blocks of consecutive steps) held out
     :param flow_refit: after choosing noise and step count, refit on all tuples
     :param log_density_floor: lower bound on the balance target (log-densities)
+    :param estimator: how the target log P(s', a' | s, a) - log T(s' | s, a) is estimated: ``"factored"`` (default:
+        P written as T x P(a' | s, a, s'), so T cancels and the target is log P(a' | s, a, s'), a mass for Discrete
+        actions like pi) or ``"joint"`` (the paper's literal estimator: one affine-coupling flow over the joint
+        (s', a') given (s, a), a' one-hot for Discrete actions, and a separate flow T; the target is the difference
+        of the two fitted log-densities, with both models' errors in it and, for Discrete actions, a density in the
+        one-hot a' rather than a mass). With ``"joint"``, T no longer cancels and is fitted like P (``noise_grid``,
+        ``flow_refit``); ``transition_noise_grid`` and ``transition_refit`` apply to ``"factored"`` only
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
     :param tensorboard_log: tensorboard folder
     :param verbose: verbosity
@@ -103,6 +111,7 @@ class MBIL(OfflineAlgorithm):
         validation_fraction: float = 0.2,
         flow_refit: bool = True,
         log_density_floor: float = -50.0,
+        estimator: str = "factored",
         policy_kwargs: dict[str, Any] | None = None,
         tensorboard_log: str | None = None,
         verbose: int = 0,
@@ -133,6 +142,7 @@ class MBIL(OfflineAlgorithm):
         self.validation_fraction = validation_fraction
         self.flow_refit = flow_refit
         self.log_density_floor = log_density_floor
+        self.estimator = estimator
         self.flow_report: dict[str, Any] | None = None
         if _init_setup_model:
             self._setup_model()
@@ -159,6 +169,7 @@ class MBIL(OfflineAlgorithm):
         self.validation_fraction = check_real("validation_fraction", self.validation_fraction, low=0.0, high=1.0,
                                               low_open=True, high_open=True)
         self.log_density_floor = check_real("log_density_floor", self.log_density_floor)
+        self.estimator = check_choice("estimator", self.estimator, ("factored", "joint"))
 
     def _setup_model(self) -> None:
         super()._setup_model()
@@ -169,6 +180,7 @@ class MBIL(OfflineAlgorithm):
             hidden=self.flow_hidden,
             embed_dim=self.flow_embed_dim,
             scale_limit=self.flow_scale_limit,
+            joint=self.estimator == "joint",
         ).to(self.device)
         self.flows.eval()
 
@@ -205,30 +217,43 @@ class MBIL(OfflineAlgorithm):
             seed=seed,
         )
         s, a, s_next, a_next = tup
+        joint = self.estimator == "joint"
         if self.verbose >= 1:
-            print(f"MBIL: fitting T(s' | s, a) and P(a' | s, a, s') on {len(s)} expert tuples")
+            which = "P(s', a' | s, a)" if joint else "P(a' | s, a, s')"
+            print(f"MBIL: fitting T(s' | s, a) and {which} on {len(s)} expert tuples")
+        t_settings = common if joint else {  # T cancels from the factored target: a cheaper fit for diagnostics
+            **common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)}
         fitted_t, report_t = fit_conditional_density(
-            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
-            **{**common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)},
+            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx, **t_settings,
             log=self._fit_log("T(s' | s, a)"),
         )
-        fitted_p, report_p = fit_conditional_density(
-            self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx, **common,
-            log=self._fit_log("P(a' | s, a, s')"),
-        )
         self.flows.transition.load_state_dict(fitted_t.state_dict())
-        self.flows.next_action.load_state_dict(fitted_p.state_dict())
+        if joint:  # the paper's literal estimator: one flow over (s', a')
+            fitted_p, report_p = fit_conditional_density(
+                self.flows.make_joint, *self.flows.joint_inputs(s, a, s_next, a_next), train_idx, val_idx, **common,
+                log=self._fit_log("P(s', a' | s, a)"),
+            )
+            self.flows.joint.load_state_dict(fitted_p.state_dict())
+            p_heldout_ll = report_p.heldout_ll
+        else:
+            fitted_p, report_p = fit_conditional_density(
+                self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx,
+                **common, log=self._fit_log("P(a' | s, a, s')"),
+            )
+            self.flows.next_action.load_state_dict(fitted_p.state_dict())
+            # log P = log T + log P(a' | s, a, s'), on the same held-out tuples
+            p_heldout_ll = report_t.heldout_ll + report_p.heldout_ll
         self.flows.fitted.fill_(True)
         self.flows.eval()
         self.flow_report = {
             "transition": report_t.as_dict(),
-            "next_action": report_p.as_dict(),
-            # log P = log T + log P(a' | s, a, s'), on the same held-out tuples
-            "p_heldout_ll": report_t.heldout_ll + report_p.heldout_ll,
+            "next_action": report_p.as_dict(),  # with estimator="joint": the joint flow P(s', a' | s, a)
+            "p_heldout_ll": p_heldout_ll,
             "transition_heldout_ll": report_t.heldout_ll,
             "fit_seconds": report_t.seconds + report_p.seconds,
             "n_tuples": len(s),
             "n_heldout": len(val_idx),
+            "estimator": self.estimator,
         }
         self._targets = None
         return self.flow_report
@@ -238,8 +263,13 @@ class MBIL(OfflineAlgorithm):
         """log P(s', a' | s, a) - log T(s' | s, a) per tuple, floored at ``log_density_floor``."""
         if not bool(self.flows.fitted):
             raise RuntimeError("the flows are not fitted yet: call fit_flows() or learn()")
+        if self.estimator == "joint":  # log P_joint(s', a' | s, a) - log T(s' | s, a), two fitted flows
+            def target_of(*chunk):
+                return self.flows.log_p_joint(*chunk) - self.flows.log_t(*chunk[:3])
+        else:  # T cancels: log P(a' | s, a, s')
+            target_of = self.flows.log_p_next_action
         parts = [
-            self.flows.log_p_next_action(s[i : i + EVAL_CHUNK], a[i : i + EVAL_CHUNK], s_next[i : i + EVAL_CHUNK], a_next[i : i + EVAL_CHUNK])
+            target_of(s[i : i + EVAL_CHUNK], a[i : i + EVAL_CHUNK], s_next[i : i + EVAL_CHUNK], a_next[i : i + EVAL_CHUNK])
             for i in range(0, len(s), EVAL_CHUNK)
         ]
         target = th.cat(parts)

@@ -21,6 +21,11 @@ exactly, with the same measure as pi on a':
 
 Fitting two separate flows for the s' part of P and for T would leave the difference of
 two estimates of the same density in the target (tens of nats with one trajectory).
+
+The paper's literal estimator is kept as an option (``MBIL(estimator="joint")``): one flow
+P_joint(s', a' | s, a) over the concatenated (s', a') (a' one-hot for Discrete actions, so P_joint is
+a density in a', not a mass) and a separate flow T(s' | s, a); the target is their difference,
+log P_joint - log T, with both estimation errors in it.
 """
 
 from __future__ import annotations
@@ -56,12 +61,30 @@ class MarkovBalanceModel(TupleInputs):
         hidden: Sequence[int] = (64, 64),
         embed_dim: int = 32,
         scale_limit: float = 3.0,
+        joint: bool = False,
     ):
         super().__init__(obs_dim, action_space)
         self._flow_args = dict(transforms=transforms, hidden=tuple(hidden), embed_dim=embed_dim, scale_limit=scale_limit)
         self.transition = self.make_transition()
         self.next_action = self.make_next_action()
+        #: the paper's literal estimator: one flow over (s', a') given (s, a) (only with ``joint``)
+        self.joint = self.make_joint() if joint else None
         self.register_buffer("fitted", th.tensor(False))
+
+    def make_joint(self) -> ConditionalFlow:
+        """A fresh P_joint(s', a' | s, a): one affine-coupling flow over the concatenated (s', a'), a' one-hot for
+        Discrete actions."""
+        return ConditionalFlow(self.obs_dim + self.act_in, self.obs_dim + self.act_in, **self._flow_args)
+
+    def joint_inputs(self, s, a, s_next, a_next) -> tuple[th.Tensor, th.Tensor]:
+        """(x, c) of P_joint: x = (s', a'), c = (s, a)."""
+        return th.cat([s_next, self.encode_action(a_next)], dim=1), th.cat([s, self.encode_action(a)], dim=1)
+
+    def log_p_joint(self, s, a, s_next, a_next) -> th.Tensor:
+        """log P_joint(s', a' | s, a) from the joint flow (``joint`` only)."""
+        if self.joint is None:
+            raise RuntimeError("this model has no joint flow (MBIL(estimator='joint') builds one)")
+        return self.joint.log_prob(*self.joint_inputs(s, a, s_next, a_next))
 
     def make_transition(self) -> ConditionalFlow:
         """A fresh T_psi(s' | s, a)."""
