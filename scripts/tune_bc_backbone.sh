@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Issue 19, the BC backbone: the Gaussian negative log-likelihood (the loss of ValueDICE's BC, which Li et al. 2022
+# regularised with weight decay 1e-3) against our MSE, with the bounded (tanh) mean and standardised inputs, on the
+# MuJoCo tuning seeds 100-102, one trajectory, 5e4 updates, 10 episodes every 5000. MSE references on the same draws
+# and protocol: results/tuning/bounded_mean.csv (bc, bc_tanh; Hopper-v4). Why weight decay hurts MSE and not NLL:
+# python scripts/weight_decay_scale.py (results/tuning/weight_decay_scale.md). Resumable: rerun to finish.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+CSV=results/tuning/bc_backbone.csv
+COMMON="--seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --csv $CSV --local"
+TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
+python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
+  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"
+python scripts/run_curves.py --envs HalfCheetah-v4 $COMMON --variants "{
+  \"bc\": [\"bc\", {}], \"bc_tanh\": [\"bc\", {$TANH}],
+  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"
