@@ -35,11 +35,10 @@ def decay_to_gradient(model: Any, updates: int, every: int, weight_decay: float)
 
     policy = model.policy
     named = [(n, p) for n, p in policy.named_parameters() if p.requires_grad]
-    # the last Linear of each head: the layers that map features to actions (or log-stds)
+    # the output layers: the named heads (mean_head, log_std_head, ...), not the hidden stack's numbered layers
     linears = [n for n, m in policy.named_modules() if isinstance(m, th.nn.Linear)]
-    heads = {n for n in linears if not any(other.startswith(n + ".") for other in linears)}
-    last_of_each = {n for n in heads if not n.split(".")[-1].isdigit() or n == linears[-1]}
-    output_names = {f"{n}.{k}" for n in last_of_each for k in ("weight", "bias")}
+    outputs = [n for n in linears if not n.split(".")[-1].isdigit()] or linears[-1:]
+    output_names = {f"{n}.{k}" for n in outputs for k in ("weight", "bias")}
     rows = []
     model.learn(0)
     done = 0

@@ -5,7 +5,7 @@
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, run
+from sb3_mbil.benchmark.cli import check_output, positive_int, run
 from sb3_mbil.benchmark.report import aggregate, paired, plot, probability_of_improvement, read_rows, table
 
 
@@ -15,6 +15,7 @@ def main(argv=None):
     p.add_argument("--out", default="results/classic_control.png")
     p.add_argument("--markdown", default=None, help="also write the tables to this markdown file")
     p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
+    p.add_argument("--reps", type=positive_int, default=2000, help="bootstrap repetitions of the confidence intervals")
     a = p.parse_args(argv)
     check_output(a.out, a.overwrite, "--out")
     check_output(a.markdown, a.overwrite, "--markdown")
@@ -30,10 +31,10 @@ def main(argv=None):
     lines += [paired(rows, algo, "bc") for algo in algos if algo != "bc" and "bc" in algos]
     lines.append("\nNormalised score (0 = random, 1 = expert), over all (env, N) cells with results for every algorithm; "
                  "95% stratified bootstrap confidence intervals (rliable):\n")
-    for algo, s in aggregate(rows).items():
+    for algo, s in aggregate(rows, reps=a.reps).items():
         lines.append(f"- {algo}: IQM {s['iqm'][0]:.3f} [{s['iqm'][1]:.3f}, {s['iqm'][2]:.3f}], "
                      f"mean {s['mean'][0]:.3f} [{s['mean'][1]:.3f}, {s['mean'][2]:.3f}]")
-    improvement = probability_of_improvement(rows, "bc")
+    improvement = probability_of_improvement(rows, "bc", reps=a.reps)
     if improvement:
         lines.append("\nProbability of improvement over BC (rliable: the chance that a run of the algorithm beats a run "
                      "of BC on the same (env, N) task, averaged over the tasks; 0.5 = level), 95% stratified bootstrap interval:\n")

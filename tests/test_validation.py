@@ -114,3 +114,20 @@ def test_learning_curves_record_the_held_out_loss(tmp_path):
     bad = subprocess.run([sys.executable, str(repo / "scripts/run_curves.py"), "--envs", "CartPole-v1", "--updates", "5",
                           "--holdout", "1.5", "--csv", "d.csv"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert bad.returncode == 2 and "argument --holdout: expected a number in (0, 1)" in bad.stderr
+
+
+def test_weight_decay_diagnostic_compares_the_decay_term_with_the_loss_gradient():
+    """sb3_mbil.weight_decay: |lambda theta| / |grad L| per parameter group, on all expert pairs, during training."""
+    from sb3_mbil import BC
+    from sb3_mbil.experts.controllers import controller_demonstrations
+    from sb3_mbil.weight_decay import decay_to_gradient
+
+    demos = controller_demonstrations("Pendulum-v1", 1, seed=0)
+    model = BC("MlpPolicy", "Pendulum-v1", expert_data=demos, seed=0, bc_loss="mse")
+    rows = decay_to_gradient(model, updates=40, every=20, weight_decay=1e-3)
+    assert [r["update"] for r in rows] == [0, 20, 40]
+    assert rows[-1]["bc_loss"] < rows[0]["bc_loss"]
+    for group in ("hidden weights", "biases", "output layer"):
+        cell = rows[0][group]
+        assert cell["grad"] > 0 and cell["decay"] > 0
+        assert abs(cell["ratio"] - cell["decay"] / cell["grad"]) < 1e-12
