@@ -1,0 +1,39 @@
+"""Peers side by side (sb3_mbil.benchmark.peers): the exported draw, the TorchScript round trip, one pair of rows.
+
+The real peer needs d3rlpy in its own venv (scripts/peers/make_venv.sh); here a stand-in trainer with the same
+command line and outputs exercises everything around it, with a real subprocess, real files and a real env."""
+
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from sb3_mbil import load_demonstrations
+from sb3_mbil.benchmark.peers import TorchScriptPolicy, export_draw, run_pair
+from sb3_mbil.common.evaluation import evaluate
+
+STANDIN = Path(__file__).resolve().parent / "peers_standin" / "d3rlpy_train.py"
+
+
+def test_export_draw_flags_each_episode_end_once(tmp_path):
+    demos = load_demonstrations("LunarLander-v3").sample(3, seed=0)
+    with np.load(export_draw(demos, tmp_path / "d.npz")) as d:
+        assert len(d["observations"]) == demos.n_steps == len(d["actions"]) == len(d["rewards"])
+        ends = np.flatnonzero(d["terminals"] + d["timeouts"])
+        np.testing.assert_array_equal(ends, np.cumsum(demos.episode_lengths) - 1)
+        np.testing.assert_array_equal(d["terminals"][ends], [t.terminated for t in demos])
+        np.testing.assert_array_equal(d["observations"][: len(demos[0])], demos[0].observations[:-1])
+
+
+def test_a_pair_of_rows_from_the_same_draw_and_evaluation(tmp_path):
+    rows = run_pair("CartPole-v1", 1, 0, sys.executable, tmp_path, n_episodes=3, n_eval_envs=3, trainer=STANDIN,
+                    commit="test")
+    assert [r["library"] for r in rows] == ["d3rlpy stand-in", "sb3_mbil"]
+    assert all(r["env"] == "CartPole-v1" and r["n_episodes"] == 3 and r["commit"] == "test" for r in rows)
+    assert rows[0]["updates"] == rows[1]["updates"] == 10_000  # both at our BC's zoo budget
+    assert "('hidden', [64, 64])" in rows[0]["settings"] and "('batch_size', 64)" in rows[0]["settings"]
+    assert rows[0]["seconds_per_update"] == 0.5 / 10_000
+    peer = TorchScriptPolicy(tmp_path / "CartPole-v1-N1-seed0" / "policy.pt", gym.make("CartPole-v1").action_space)
+    again = evaluate(peer, "CartPole-v1", 3, seed=1_000_000, n_envs=3)
+    assert rows[0]["mean_return"] == float(np.mean(again))  # the same evaluation episodes
