@@ -323,3 +323,25 @@ def test_run_curves_on_another_pool_of_the_env(tmp_path):
     two = subprocess.run(cmd + ["--envs", "CartPole-v1", "Acrobot-v1", "--pool", str(pool)], cwd=repo, capture_output=True,
                          text=True, timeout=300)
     assert two.returncode == 2 and "expected one env" in two.stderr
+
+
+def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatch):
+    """BENCHMARKS.md comes from the CSVs: sections for the files that exist, paired CIs, the published check."""
+    from sb3_mbil.benchmark import page
+
+    rows = [{"algo": algo, "env": "CartPole-v1", "n_trajectories": 1, "seed": seed, "mean_return": ret + seed,
+             "settings": "", "commit": "abc"}
+            for algo, ret in (("bc", 170.0), ("mbil", 300.0)) for seed in range(4)]
+    out = tmp_path / "results"
+    out.mkdir()
+    with open(out / "classic_control_published.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    monkeypatch.chdir(tmp_path)
+    text = page.benchmarks_page(reps=50, notes=tmp_path / "none.md")
+    assert "## Figure 3: the published protocol" in text and "8 runs from `results/classic_control_published.csv`" in text
+    assert "No results yet (`results/classic_control.csv` does not exist)" in text
+    assert "| mbil | CartPole-v1 | 1 | 4 | +130.0 | [+130.0, +130.0] | 0 of 4 | above |" in text
+    # BC at 171.5 on average against the published 170 at N=1: within 0.15 normalised
+    assert "| bc | CartPole-v1 | 1 | 171.5 (4) | 170 |" in text and "Within 0.15 of the published value: 1 of 1" in text

@@ -52,7 +52,9 @@ def grouped(rows) -> dict[tuple[str, str, int], np.ndarray]:
     return {k: np.array(v) for k, v in out.items()}
 
 
-def table(rows) -> str:
+def table(rows, anchors: bool = True) -> str:
+    """Per env, mean +- std over seeds of every (algo, N); ``anchors``: also the published rows (read off earlier
+    papers' figures, their experts and data) for the first pools."""
     g = grouped(rows)
     envs = sorted({r["env"] for r in rows})
     algos = sorted({r["algo"] for r in rows})
@@ -70,7 +72,7 @@ def table(rows) -> str:
                 cells.append("" if v is None else f"{v.mean():.1f} +- {v.std():.1f} ({len(v)})")
             lines.append(f"| {algo} | " + " | ".join(cells) + " |")
         for label, ref in (("published best (every 20th step)", PUBLISHED_BEST), ("published BC (every 20th step)", PUBLISHED_BC)):
-            if env in ref:
+            if anchors and env in ref:
                 lines.append(f"| {label} | " + " | ".join(str(ref[env].get(n, "")) for n in ns) + " |")
     return "\n".join(lines)
 

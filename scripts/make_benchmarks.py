@@ -1,0 +1,27 @@
+"""Regenerate BENCHMARKS.md from the committed result files (sb3_mbil.benchmark.page) and docs/benchmarks_notes.md.
+
+    python scripts/make_benchmarks.py --overwrite
+"""
+
+import argparse
+
+from sb3_mbil.benchmark.cli import check_output, positive_int, run
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default="BENCHMARKS.md")
+    p.add_argument("--notes", default="docs/benchmarks_notes.md", help="prose included at the top of the page")
+    p.add_argument("--reps", type=positive_int, default=2000, help="bootstrap repetitions of the intervals")
+    p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
+    a = p.parse_args(argv)
+    check_output(a.out, a.overwrite, "--out")
+    from sb3_mbil.benchmark.page import benchmarks_page
+    from sb3_mbil.benchmark.results import write_text
+
+    write_text(a.out, benchmarks_page(reps=a.reps, notes=a.notes))
+    print(f"wrote {a.out}")
+
+
+if __name__ == "__main__":
+    run(main)
