@@ -161,3 +161,32 @@ def test_corrective_labels_lead_back_to_the_expert_next_state():
     assert np.median(rms) < 0.1
     assert np.abs(actions - a.numpy()[tuples]).mean() > 0.1  # new actions, not the data's
 
+
+
+def test_discrete_objective_is_one_cross_entropy_with_the_same_gradient():
+    """Discrete: beta * CE(onehot(a), pi) + alpha * mean(w * KL(P || pi)) has the gradient of one cross-entropy
+    against the cached soft labels beta * onehot(a) + alpha * w * P (the update MBIL-C runs); alpha and beta changed
+    after the first learn are taken up."""
+    demos = load_demonstrations("LunarLander-v3").sample(1, seed=0)
+    model = MBILC("MlpPolicy", "LunarLander-v3", expert_data=demos, alpha=0.7, beta=1.3, seed=0)
+    model.learn(5)
+    cache, pairs = model.balance_targets(), model.expert_pairs()
+    i = th.arange(len(pairs.observations))
+
+    def grads(loss):
+        model.policy.zero_grad(set_to_none=True)
+        loss.backward()
+        return [p.grad.clone() for p in model.policy.parameters() if p.grad is not None]
+
+    logits = model.policy.heads(pairs.observations[i])[0]
+    fused = grads(th.nn.functional.cross_entropy(logits, cache["soft_labels"][i]))
+    log_pi = th.log_softmax(model.policy.heads(pairs.observations[i])[0], -1)
+    kl = balance_kl(model.policy, (cache["data"][0][i],), (model.policy.heads(pairs.observations[i])[0],))
+    kl = th.where(cache["has_target"][i], kl, th.zeros_like(kl))  # rows without a predecessor carry no target
+    explicit = 1.3 * -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean() + 0.7 * (kl * cache["weight"][i]).mean()
+    for a, b in zip(fused, grads(explicit)):
+        th.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
+    model.alpha = 0.0
+    model.learn(1, reset_num_timesteps=False)
+    onehot = th.nn.functional.one_hot(pairs.actions, cache["soft_labels"].shape[1]).float()
+    th.testing.assert_close(model.balance_targets()["soft_labels"], 1.3 * onehot)

@@ -321,6 +321,8 @@ class MBILC(OfflineAlgorithm):
         ``states`` / ``model``: the ``n_model_states`` draws s~' ~ T^kappa(. | s, a) per tuple and P(. | s, a, s~').
         """
         if self._cache is not None:
+            if "soft_labels" in self._cache and self._cache["label_weights"] != (self.alpha, self.beta):
+                self._cache.update(self._soft_labels(self._cache))  # alpha or beta changed since
             return self._cache
         if not bool(self.balance_model.fitted):
             raise RuntimeError("the models are not fitted yet: call fit_models() or learn()")
@@ -346,6 +348,7 @@ class MBILC(OfflineAlgorithm):
         if model.discrete:  # KL(P || pi) = sum P log P - sum P log pi: the first sum once per pair
             probs = cache["data"][0].exp() * has.float().unsqueeze(1)
             cache["probs"], cache["neg_entropy"] = probs, (probs * cache["data"][0]).sum(1)
+            cache.update(self._soft_labels(cache))
         if self.anchor_to_data:  # Box: P's mean at the data moved onto the observed a' (its std kept)
             a_next = self.expert_tuples().next_actions
             cache["data"] = (cache["data"][0].index_copy(0, th.nonzero(has).view(-1), a_next[prev[has]].view(-1, data[0].shape[1])),
@@ -365,6 +368,14 @@ class MBILC(OfflineAlgorithm):
             cache["model"] = target
         self._cache = cache
         return cache
+
+    def _soft_labels(self, cache: dict[str, Any]) -> dict[str, Any]:
+        """(Discrete) beta * CE(onehot(a), pi) + alpha * w * KL(P || pi) = CE(Y, pi) + const with the soft label
+        Y = beta * onehot(a) + alpha * w * P per expert pair: the objective at the data as one cross-entropy."""
+        pairs = self.expert_pairs()
+        onehot = th.nn.functional.one_hot(pairs.actions, self.balance_model.n_actions).float()
+        return {"soft_labels": self.beta * onehot + self.alpha * cache["weight"].unsqueeze(1) * cache["probs"],
+                "label_weights": (self.alpha, self.beta)}
 
     @th.no_grad()
     def _corrective_labels(self) -> dict[str, Any]:
@@ -435,6 +446,22 @@ class MBILC(OfflineAlgorithm):
         heads_model = [h[n:n + n_model] for h in heads]
         heads_orphan = [h[n + n_model:] for h in heads]
         loss = th.zeros((), device=self.device)
+
+        # Discrete, KL, no model or orphan states: BC and the balance term at the data are one cross-entropy against
+        # the cached soft labels (the same gradient, one fused op); the two terms are logged every 10th update.
+        if "soft_labels" in cache and self._divergence == "kl" and not use_model and not use_orphans:
+            loss = th.nn.functional.cross_entropy(heads_s[0], cache["soft_labels"][i])
+            self.policy.optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            self.policy.optimizer.step()
+            self._record("train/loss", loss)
+            if self.num_timesteps % 10 == 0:
+                with th.no_grad():
+                    log_pi = th.log_softmax(heads_s[0].detach(), dim=-1)
+                    self._record("train/bc_loss", -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean())
+                    kl = cache["neg_entropy"][i] - (cache["probs"][i] * log_pi).sum(dim=1)
+                    self._record("train/balance_loss", (kl * cache["weight"][i]).mean())
+            return
 
         log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete else None  # once, for both terms
 
