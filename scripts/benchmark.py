@@ -33,8 +33,9 @@ def main(argv=None):
                         "instead of each env's shipped pool; one env only")
     p.add_argument("--second-expert", action="store_true",
                    help="draw from each env's second expert pool (another RL Zoo algorithm) instead of the first")
-    p.add_argument("--protocol", default="full", choices=["full", "published"],
-                   help="full trajectories, or every k-th step at each algorithm's published rate")
+    p.add_argument("--protocol", default="full", choices=["full", "published", "published_next"],
+                   help="full trajectories, every k-th step at each algorithm's published rate, or (a control) every "
+                        "k-th step and its next step")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")

@@ -74,7 +74,9 @@ def test_published_rates_follow_the_reference_codes():
     pub = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published")
     assert full.metadata["sampled"]["indices"] == pub.metadata["sampled"]["indices"]  # the same draw
     assert pub.n_steps == sum((n + 19) // 20 for n in full.episode_lengths)
-    assert set(PROTOCOLS) == {"full", "published"}
+    assert set(PROTOCOLS) == {"full", "published", "published_next"}
+    both = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published_next")
+    assert both.n_steps == sum(min(2, n - t) for n in full.episode_lengths for t in range(0, n, 20))
     with pytest.raises(ValueError, match="protocol: expected one of"):
         demonstrations_for("bc", "CartPole-v1", 1, seed=0, protocol="every-other")
 
@@ -100,3 +102,14 @@ def test_mbil_c_balances_at_the_true_successors_of_subsampled_steps():
     tuples = model.expert_tuples()
     assert len(cache["orphan_states"]) == len(tuples.observations)
     th.testing.assert_close(cache["orphan_states"], tuples.next_observations)
+
+
+def test_with_next_keeps_each_kept_step_and_its_next_step():
+    sub = _labelled().subsample(5, 0, with_next=True)
+    pairs = sub.pairs()["observations"].astype(int)
+    expected = [(e, t + k) for e, n in enumerate((23, 9)) for t in range(0, n, 5) for k in range(2) if t + k < n]
+    assert [tuple(o) for o in pairs] == expected
+    tu = sub.tuples()  # (s_t, a_t, s_t+1, a_t+1) and (s_t+1, a_t+1, s_t+2, a_t+2), never across kept steps
+    np.testing.assert_array_equal(tu["next_observations"][:, 1], tu["observations"][:, 1] + 1)
+    np.testing.assert_array_equal(tu["next_actions"][:, 0], tu["actions"][:, 0] + 1)
+    assert sub.metadata["subsampled"]["with_next"] is True

@@ -7,7 +7,10 @@
   classic-control data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps
   as BC, each with its true successor (s', a'), so MBIL and BC see the same samples.
 
-Both protocols draw the same N trajectories for a seed (``Demonstrations.sample(N, seed)``); the published codes took
+- ``published_next``: a control for ``published``: each kept step and its next step, both as labelled (s, a) pairs,
+  so that BC sees the labels MBIL gets from the successors (s', a'); MBIL then also gets the next step's tuple.
+
+The protocols draw the same N trajectories for a seed (``Demonstrations.sample(N, seed)``); the published codes took
 the first N, or the block of N starting at the seed, which we do not copy: the draw is part of the comparison.
 """
 
@@ -16,7 +19,7 @@ from __future__ import annotations
 from sb3_mbil.common.demonstrations import Demonstrations, load_demonstrations
 from sb3_mbil.common.validation import check_choice
 
-PROTOCOLS = ("full", "published")
+PROTOCOLS = ("full", "published", "published_next")
 
 #: keep every k-th step on the ``published`` protocol: per algorithm, one rate or a rate per env
 PUBLISHED_EVERY: dict[str, int | dict[str, int]] = {
@@ -42,4 +45,4 @@ def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, p
     demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
     if protocol == "full":
         return demos
-    return demos.subsample(published_every(algo, env_id))
+    return demos.subsample(published_every(algo, env_id), with_next=protocol == "published_next")

@@ -177,7 +177,7 @@ class Demonstrations:
         meta["sampled"] = {"n": int(n), "seed": seed, "indices": [int(i) for i in idx]}
         return Demonstrations([self.trajectories[i] for i in idx], meta)
 
-    def subsample(self, every: int, offset: int = 0) -> Demonstrations:
+    def subsample(self, every: int, offset: int = 0, with_next: bool = False) -> Demonstrations:
         """Keep every ``every``-th step of each trajectory, from step ``offset`` (the published baselines' data
         protocol: EDM's and IQ-Learn's codes keep every 20th or 5th step).
 
@@ -185,7 +185,9 @@ class Demonstrations:
         expert's ``a_{t+1}`` as the piece's ``final_action``, so (s, a, s') and (s, a, s', a') are true one-step
         samples and never join two episodes or two kept steps. A kept last step keeps the episode's end
         (``terminated`` / ``truncated``) and, without a following action, forms a transition but no tuple.
-        ``every=1`` keeps every step (still as pieces).
+        ``every=1`` keeps every step (still as pieces). ``with_next``: each piece also keeps the kept step's next step
+        (s_{t+1}, a_{t+1}) as a labelled pair, i.e. two steps per piece (a control: the labels the successors give
+        MBIL, handed to a method that learns from (s, a) pairs only).
         """
         from sb3_mbil.common.validation import check_int
 
@@ -194,21 +196,25 @@ class Demonstrations:
         if offset >= every:
             raise ValueError(f"offset: expected an integer in [0, {every - 1}] for every={every}, found {offset}")
         pieces = []
+        steps = 2 if with_next else 1
         for traj in self.trajectories:
             n = len(traj)
             for t in range(offset, n, every):
-                last = t == n - 1
-                has_next_obs = t + 1 < len(traj.observations)
+                k = min(steps, n - t)  # steps kept in this piece
+                last = t + k == n
+                has_next_obs = t + k < len(traj.observations)
                 pieces.append(Trajectory(
-                    traj.observations[t : t + 2] if has_next_obs else traj.observations[t : t + 1],
-                    traj.actions[t : t + 1],
+                    traj.observations[t : t + k + 1] if has_next_obs else traj.observations[t : t + k],
+                    traj.actions[t : t + k],
                     terminated=traj.terminated and last, truncated=traj.truncated and last,
-                    final_action=None if last else traj.actions[t + 1]))
+                    final_action=None if last else traj.actions[t + k]))
         if not pieces:
             raise ValueError(f"offset: expected a step to keep, found none (offset {offset}, lengths "
                              f"{self.episode_lengths.tolist()[:10]})")
         meta = dict(self.metadata)
         meta["subsampled"] = {"every": every, "offset": offset, "n_episodes": len(self), "n_steps": self.n_steps}
+        if with_next:
+            meta["subsampled"]["with_next"] = True
         return Demonstrations(pieces, meta)
 
     def provenance(self) -> dict[str, Any]:
