@@ -192,6 +192,9 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "every 20th step for BC, EDM, RCAL, DSFN, ValueDICE, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL full trajectories; 5 seeds.",
                      published=True),
+        grid_section("Figure 3: the published protocol, a control", "results/classic_control_published_next.csv", reps,
+                     "`--protocol published_next`: each kept step and its next step as labelled pairs, so that BC sees "
+                     "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False),
         grid_section("Figure 3: full trajectories, the second expert", "results/classic_control_second.csv", reps,
                      "Each env's second expert pool (`--second-expert`: PPO CartPole-v1, DQN Acrobot-v1, DQN "
                      "LunarLander-v3), N = 1 and 3.", anchors=False),
