@@ -10,7 +10,7 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, positive_int, run
+from sb3_mbil.benchmark.cli import check_output, emit, positive_int, run
 
 
 def main(argv=None):
@@ -30,7 +30,7 @@ def main(argv=None):
     a = p.parse_args(argv)
     check_output(a.markdown, a.overwrite, "--markdown")
     from sb3_mbil.benchmark.curves import curve_table, draw_table, heldout_table, paired_table, pool_experts
-    from sb3_mbil.benchmark.results import read_result_rows, write_text
+    from sb3_mbil.benchmark.results import read_result_rows
 
     rows = []
     for path in a.csv:
@@ -60,9 +60,7 @@ def main(argv=None):
         text += "\n\n" + heldout_table(rows)
     if a.draws:
         text += "\n\n" + draw_table(rows, last=a.last)
-    print(text)
-    if a.markdown:
-        write_text(a.markdown, text + "\n")
+    emit(text, a.markdown)
 
 
 if __name__ == "__main__":

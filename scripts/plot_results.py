@@ -5,7 +5,7 @@
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, positive_int, run
+from sb3_mbil.benchmark.cli import check_output, emit, positive_int, run
 from sb3_mbil.benchmark.report import aggregate, paired, plot, probability_of_improvement, read_rows, table
 
 
@@ -42,11 +42,7 @@ def main(argv=None):
             lines.append(f"- {algo}: {point:.3f} [{lo:.3f}, {hi:.3f}]")
     lines.append(f"\nPlot: `{a.out}`; made with `python scripts/plot_results.py --csv {a.csv} --out {a.out}`.")
     text = "\n".join(lines)
-    print(text)
-    if a.markdown:
-        from sb3_mbil.benchmark.results import write_text
-
-        write_text(a.markdown, text + "\n")
+    emit(text, a.markdown)
 
 
 if __name__ == "__main__":

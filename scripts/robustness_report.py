@@ -5,8 +5,7 @@
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, run
-from sb3_mbil.benchmark.results import write_text
+from sb3_mbil.benchmark.cli import check_output, emit, run
 
 
 def main(argv=None):
@@ -22,9 +21,7 @@ def main(argv=None):
 
     th.set_num_threads(1)
     text = f"Robustness at commit {git_commit()} (`python scripts/robustness_report.py`):\n\n" + table(run_cases())
-    print(text)
-    if a.markdown:
-        write_text(a.markdown, text + "\n")
+    emit(text, a.markdown)
 
 
 if __name__ == "__main__":

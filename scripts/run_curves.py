@@ -13,7 +13,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, fraction, parse_seeds, positive_int, run
+from sb3_mbil.benchmark.cli import check_output, emit, fraction, parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -52,7 +52,6 @@ def main(argv=None):
         plot_curves,
         run_curves,
     )
-    from sb3_mbil.benchmark.results import write_text
 
     if a.variants:
         try:
@@ -82,9 +81,7 @@ def main(argv=None):
     experts = ", ".join(f"{e} {v:.1f}" for e, v in expert.items())
     text = (f"Results from `{a.csv}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}); expert = mean return of "
             f"the pool {a.pool or '(shipped)'}: {experts}.\n\n" + curve_table(rows, expert, last=a.last))
-    print(text)
-    if a.markdown:
-        write_text(a.markdown, text + "\n")
+    emit(text, a.markdown)
     if a.plot:
         plot_curves(rows, a.plot, expert)
         print(f"plot: {a.plot}")

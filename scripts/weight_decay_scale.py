@@ -7,7 +7,7 @@ group, during training on one trajectory (sb3_mbil.weight_decay).
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, positive_int, run
+from sb3_mbil.benchmark.cli import check_output, emit, positive_int, run
 
 
 def main(argv=None):
@@ -47,11 +47,7 @@ def main(argv=None):
                 lines.append(f"| {loss} | {wd > 0} | {row['update']} | {row['bc_loss']:.4g} | " + " | ".join(cells) + " |")
                 print(lines[-1], flush=True)
     text = "\n".join(lines)
-    print(text)
-    if a.markdown:
-        from sb3_mbil.benchmark.results import write_text
-
-        write_text(a.markdown, text + "\n")
+    emit(text, a.markdown)
 
 
 if __name__ == "__main__":

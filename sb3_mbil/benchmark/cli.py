@@ -94,6 +94,15 @@ def check_output(path: str | os.PathLike | None, overwrite: bool, option: str) -
         raise ValueError(f"{option}: {path} is a committed file; pass --overwrite to replace it")
 
 
+def emit(text: str, markdown: str | os.PathLike | None = None) -> None:
+    """Print a script's report, and write it whole to ``markdown`` when given."""
+    print(text)
+    if markdown:
+        from sb3_mbil.benchmark.results import write_text
+
+        write_text(markdown, text + "\n")
+
+
 def run(main: Callable[[], Any]) -> Any:
     """Run a script's ``main``: bad input, a missing file or a missing extra is one line on stderr and exit code 1,
     not a traceback."""
