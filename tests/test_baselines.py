@@ -173,7 +173,7 @@ def test_dice_critics_stay_finite_over_10000_updates(name, env_id, keys, cartpol
     from stable_baselines3.common.logger import KVWriter, Logger
 
     data = {"CartPole-v1": cartpole_data, "Pendulum-v1": pendulum_data}[env_id]
-    small = {"odice": dict(policy_kwargs=dict(net_arch=[64, 64]), value_arch=[64, 64]),  # the reference's Discrete sizes
+    small = {"odice": dict(policy_kwargs=dict(net_arch=[64, 64]), value_arch=[64, 64], batch_size=64),
              "valuedice": dict(policy_kwargs=dict(net_arch=[64, 64]), nu_arch=[64, 64], batch_size=64)}[name]
     model = ALGORITHMS[name]("MlpPolicy", env_id, expert_data=data, seed=0, **small)
     seen = []
