@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Issue 17: Figure 3 with every Discrete-capable algorithm of sb3_mbil.ALGORITHMS, in the order the compute allows
+# (about 2 000 runs; each stage resumes, rows are appended as they finish). Ray by default (one torch thread per
+# task, as many tasks as cores); CURVE_RUNNER=--local runs without Ray. BENCHMARKS.md: python scripts/make_benchmarks.py --overwrite
+#   bash scripts/run_figure3.sh published   # 5 seeds, each algorithm's published subsampling
+#   bash scripts/run_figure3.sh second      # the second experts, N = 1 and 3, 10 seeds
+#   bash scripts/run_figure3.sh full        # the first experts, full trajectories, 10 seeds
+set -euo pipefail
+cd "$(dirname "$0")/.."
+RUNNER=${CURVE_RUNNER:-}
+ENVS="CartPole-v1 Acrobot-v1 LunarLander-v3"
+# fastest first: DSFN (a warm start and up to 10 rounds of batch DQN) last
+ALGOS="bc mbil mbil_c edm rcal avril iq_learn valuedice dsfn"
+case "${1:-}" in
+  published)
+    python scripts/benchmark.py --algos $ALGOS --envs $ENVS --n-trajectories 1 3 7 10 15 --seeds 0-4 --episodes 300 \
+      --protocol published --csv results/classic_control_published.csv $RUNNER ;;
+  second)
+    python scripts/benchmark.py --algos $ALGOS --envs $ENVS --n-trajectories 1 3 --seeds 0-9 --episodes 300 \
+      --second-expert --csv results/classic_control_second.csv $RUNNER ;;
+  full)
+    python scripts/benchmark.py --algos $ALGOS --envs $ENVS --n-trajectories 1 3 7 10 15 --seeds 0-9 --episodes 300 \
+      --csv results/classic_control.csv $RUNNER ;;
+  *) echo "usage: bash scripts/run_figure3.sh published|second|full" >&2; exit 2 ;;
+esac
