@@ -120,6 +120,39 @@ def published_check(rows) -> str:
     return "\n".join(lines)
 
 
+def control_section(published_path: str, control_path: str) -> str:
+    """The published protocol against its control, per env and N on the shared seeds: BC, MBIL and MBIL-C on the kept
+    steps, BC and MBIL-C also given each kept step's next step as a label, and MBIL's paired difference to both BCs
+    (95% t intervals over seeds)."""
+    from scipy import stats
+
+    title = "## The published protocol against its control"
+    if not (os.path.isfile(published_path) and os.path.isfile(control_path)):
+        return f"{title}\n\nNo results yet (`{published_path}` and `{control_path}`).\n"
+    runs: dict = defaultdict(dict)
+    for tag, path in (("", published_path), (" + next", control_path)):
+        for r in read_rows(path):
+            runs[(r["env"], r["n_trajectories"], r["seed"])][r["algo"] + tag] = r["mean_return"]
+    cols = ["bc", "mbil", "mbil_c", "bc + next", "mbil_c + next"]
+    lines = [title, "", f"From `{published_path}` and `{control_path}`: mean return over the seeds every column ran; "
+             "\"+ next\": the kept steps and each one's next step, all as labelled pairs (`--protocol published_next`).", "",
+             "| env | N | seeds | " + " | ".join(cols) + " | mbil - bc [95% CI] | mbil - (bc + next) [95% CI] |",
+             "|---|---|---|" + "---|" * (len(cols) + 2)]
+    for env, n in sorted({(e, n) for e, n, _ in runs}):
+        seeds = [s for (e, nn, s), v in sorted(runs.items()) if (e, nn) == (env, n) and all(c in v for c in cols)]
+        if len(seeds) < 2:
+            continue
+        v = {c: np.array([runs[(env, n, s)][c] for s in seeds]) for c in cols}
+        diffs = []
+        for ref in ("bc", "bc + next"):
+            d = v["mbil"] - v[ref]
+            lo, hi = stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+            diffs.append(f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}]")
+        lines.append(f"| {env} | {n} | {len(seeds)} | " + " | ".join(f"{v[c].mean():.1f}" for c in cols) + " | "
+                     + " | ".join(diffs) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def grid_section(title: str, path: str, reps: int, intro: str = "", published: bool = False,
                  anchors: bool = True) -> str:
     if not os.path.isfile(path):
@@ -192,6 +225,7 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "every 20th step for BC, EDM, RCAL, DSFN, ValueDICE, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL full trajectories; 5 seeds.",
                      published=True),
+        control_section("results/classic_control_published.csv", "results/classic_control_published_next.csv"),
         grid_section("Figure 3: the published protocol, a control", "results/classic_control_published_next.csv", reps,
                      "`--protocol published_next`: each kept step and its next step as labelled pairs, so that BC sees "
                      "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False),
