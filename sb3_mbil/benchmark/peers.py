@@ -23,7 +23,7 @@ from gymnasium import spaces
 from sb3_mbil.common.demonstrations import Demonstrations
 
 REPO = Path(__file__).resolve().parents[2]
-TRAINER = REPO / "scripts" / "peers" / "d3rlpy_train.py"
+TRAINER = REPO / "scripts" / "peers" / "d3rlpy_train.py"  # in a source checkout (scripts/ is not installed)
 PEER_COLUMNS = ["library", "algo", "env", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
                 "updates", "fit_seconds", "seconds_per_update", "settings", "commit"]
 PEER_KEY = ("library", "env", "n_trajectories", "seed")

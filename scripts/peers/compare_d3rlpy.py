@@ -44,7 +44,8 @@ def main(argv=None):
                 done = finished_keys(a.csv, PEER_KEY)
                 if any(k[1:] == (env, str(n), str(seed)) for k in done):
                     continue
-                rows = run_pair(env, n, seed, a.python, a.workdir, n_episodes=a.episodes, commit=commit)
+                rows = run_pair(env, n, seed, a.python, a.workdir, n_episodes=a.episodes, commit=commit,
+                                trainer=Path(__file__).resolve().parent / "d3rlpy_train.py")
                 append_rows(a.csv, rows, PEER_COLUMNS)  # both libraries' rows land together
                 logging.info("%s N=%d seed=%d: %s", env, n, seed,
                              ", ".join(f"{r['library']} {r['mean_return']:.1f} ({1e3 * r['seconds_per_update']:.2f} ms"
