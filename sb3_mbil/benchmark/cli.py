@@ -71,7 +71,7 @@ def parse_seeds(text: str) -> list[int]:
 
 # ---------------------------------------------------------------------- running a script
 #: the extra that installs a module a script may need
-EXTRA_OF = {"ray": "benchmark", "rliable": "benchmark", "matplotlib": "benchmark", "onnx": "export",
+EXTRA_OF = {"ray": "benchmark", "rliable": "benchmark", "scipy": "benchmark", "matplotlib": "benchmark", "onnx": "export",
             "onnxscript": "export", "minari": "minari", "tensorboard": "tensorboard", "mujoco": "mujoco",
             "imitation": "imitation"}
 
