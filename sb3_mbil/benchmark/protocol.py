@@ -1,12 +1,11 @@
-"""The two data protocols of the benchmark.
+"""The data protocols of the benchmark.
 
 - ``full``: every step of each drawn trajectory (ours; the MBIL paper's own protocol for MBIL).
-- ``published``: what the published classic-control baseline curves used, each baseline's own code's data handling
-  (../shared/BASELINES.md section 0): every 20th step for BC, EDM and RCAL (EDM's code), IQ-Learn's own rates (every
-  20th step on CartPole, every 5th on Acrobot and LunarLander), full trajectories for AVRIL. DSFN's and ValueDICE's
-  classic-control data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps
-  as BC, each with its true successor (s', a'), so MBIL and BC see the same samples.
-
+- ``published``: what the published classic-control baseline curves used, i.e. each baseline's own code's data
+  handling. BC, EDM and RCAL keep every 20th step (EDM's code). IQ-Learn keeps every 20th step on CartPole and every
+  5th on Acrobot and LunarLander (its scripts). AVRIL keeps full trajectories. DSFN's and ValueDICE's classic-control
+  data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps as BC, each with
+  its true successor (s', a').
 - ``published_next``: a control for ``published``: each kept step and its next step, both as labelled (s, a) pairs,
   so that BC sees the labels MBIL gets from the successors (s', a'); MBIL then also gets the next step's tuple.
 
