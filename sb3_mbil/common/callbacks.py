@@ -43,6 +43,8 @@ class StopTrainingOnReturn(BaseCallback):
         train_norm = unwrap_vec_normalize(self.training_env)
         if train_norm is not None:
             eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
+        if self.model.seed is not None:
+            eval_env.seed(self.model.seed)  # the same evaluation episodes on every machine and every run
         self.eval_env = eval_env
         self.time_limit = gym.spec(env_id).max_episode_steps
 
