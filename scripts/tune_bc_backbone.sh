@@ -9,6 +9,10 @@ cd "$(dirname "$0")/.."
 CSV=results/tuning/bc_backbone.csv
 COMMON="--seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --csv $CSV --local"
 TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
+# the learning rate decayed linearly to 0 over the run (rl_zoo3's "lin_1e-3"): is the late-training noise the step size?
+LIN='"learning_rate": "lin_1e-3"'
+python scripts/run_curves.py --envs Hopper-v4 HalfCheetah-v4 $COMMON --variants "{
+  \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}]}"
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
   \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"

@@ -98,6 +98,19 @@ def test_unknown_env_is_refused():
         tuned_settings("mbil", "Pendulum-v1")
 
 
+def test_a_linear_learning_rate_schedule_as_the_zoo_writes_it(cartpole_data):
+    from sb3_mbil import BC
+    from sb3_mbil.benchmark.grid import tuned_settings
+
+    settings = tuned_settings("bc", "CartPole-v1", {"learning_rate": "lin_1e-3"})
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, seed=0, learning_rate=settings["learning_rate"])
+    model.learn(10)
+    # the last of the 10 updates ran with 1e-3 times the remaining progress, 1/10
+    assert model.policy.optimizer.param_groups[0]["lr"] == pytest.approx(1e-4)
+    with pytest.raises(ValueError, match="learning_rate: expected a number or 'lin_<initial value>', found 'cos_1e-3'"):
+        tuned_settings("bc", "CartPole-v1", {"learning_rate": "cos_1e-3"})
+
+
 @pytest.mark.parametrize("algo", ["mbil", "bc"])
 def test_every_expert_env_has_tuned_settings(algo):
     from sb3_mbil.benchmark.grid import tuned_settings
