@@ -15,8 +15,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from stable_baselines3.common.callbacks import BaseCallback
 
+from sb3_mbil import ALGORITHMS
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
 from sb3_mbil.benchmark.results import append_rows, finished_keys
 
@@ -24,11 +26,14 @@ CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episo
                  "heldout_bc_loss"]
 CURVE_KEY = ("algo", "env", "seed")
 
-# Figure 4: MBIL (MSE BC term, Gaussian policy) against BC with MSE, with and without weight decay.
+# Figure 4: MBIL (MSE BC term, Gaussian policy) against BC with MSE, with and without weight decay, and every other
+# algorithm of sb3_mbil.ALGORITHMS that takes Box actions, with its zoo settings.
 FIGURE4_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
     "mbil": ("mbil", {"bc_loss": "mse"}),
     "bc": ("bc", {"bc_loss": "mse", "weight_decay": 0.0}),
     "bc_wd1e-3": ("bc", {"bc_loss": "mse", "weight_decay": 1e-3}),
+    **{name: (name, {}) for name, algo in ALGORITHMS.items()
+       if spaces.Box in algo.supported_action_spaces and name not in ("mbil", "bc")},
 }
 # Figure 5: the (alpha, beta) ablation.
 ABLATION_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
@@ -40,7 +45,6 @@ def parse_variants(text: str) -> dict[str, tuple[str, dict[str, Any]]]:
     """Variants from JSON, ``{"name": ["algo", {settings}]}`` (e.g. tuning runs beside the figures' variants)."""
     import json
 
-    from sb3_mbil import ALGORITHMS
 
     try:
         raw = json.loads(text)
@@ -97,8 +101,6 @@ def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_
     :class:`~sb3_mbil.common.heldout.ValidationCallback`; each row then has the held-out BC loss at its step.
     """
     import torch as th
-
-    from sb3_mbil import ALGORITHMS
 
     th.set_num_threads(1)
     algo, variant_settings = variants[run.variant]
