@@ -13,6 +13,10 @@ TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, 
 LIN='"learning_rate": "lin_1e-3"'
 python scripts/run_curves.py --envs Hopper-v4 HalfCheetah-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}]}"
+# the same backbone under MBIL and MBIL-C (references on the same draws: results/tuning/mujoco.csv, mbil_norm;
+# results/tuning/mbil_c_hopper.csv)
+python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
+  \"mbil_tanh_lin\": [\"mbil\", {$LIN, $TANH}], \"mbil_c_tanh_lin\": [\"mbil_c\", {$LIN, $TANH}]}"
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
   \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"
