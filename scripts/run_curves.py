@@ -21,6 +21,8 @@ def main(argv=None):
     p.add_argument("--figure", choices=["4", "5"], default="4")
     p.add_argument("--variants", default=None,
                    help='JSON {"name": ["algo", {settings}]} instead of the figure\'s variants (tuning runs)')
+    p.add_argument("--only", nargs="+", default=None, metavar="VARIANT",
+                   help="run only these of the figure's variants (e.g. --only bc bc_wd1e-3), in this order")
     p.add_argument("--envs", nargs="+", required=True)
     p.add_argument("--seeds", type=parse_seeds, default=list(range(5)))
     p.add_argument("--updates", type=positive_int, required=True, help="gradient updates per run")
@@ -60,6 +62,11 @@ def main(argv=None):
             p.error(str(e))
     else:
         variants = FIGURE4_VARIANTS if a.figure == "4" else ABLATION_VARIANTS
+    if a.only:
+        unknown = [v for v in a.only if v not in variants]
+        if unknown:
+            p.error(f"--only: expected variants among {sorted(variants)}, found {' '.join(unknown)}")
+        variants = {v: variants[v] for v in a.only}
     if a.pool is not None:
         if len(a.envs) != 1:
             p.error(f"--pool: expected one env, found {len(a.envs)} ({' '.join(a.envs)})")

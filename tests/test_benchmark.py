@@ -338,6 +338,29 @@ def test_run_curves_on_another_pool_of_the_env(tmp_path):
     assert two.returncode == 2 and "expected one env" in two.stderr
 
 
+def test_figure4_has_every_box_algorithm_and_runs_a_chosen_subset(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from gymnasium import spaces
+
+    from sb3_mbil import ALGORITHMS
+    from sb3_mbil.benchmark.curves import FIGURE4_VARIANTS
+
+    box = {name for name, algo in ALGORITHMS.items() if spaces.Box in algo.supported_action_spaces}
+    assert box <= {algo for algo, _ in FIGURE4_VARIANTS.values()} and "odice" in box and "edm" not in box
+    repo = Path(__file__).resolve().parent.parent
+    out = tmp_path / "fig4.csv"
+    cmd = [sys.executable, "scripts/run_curves.py", "--figure", "4", "--envs", "Hopper-v4", "--seeds", "0",
+           "--updates", "20", "--eval-every", "10", "--episodes", "1", "--csv", str(out), "--local"]
+    ok = subprocess.run(cmd + ["--only", "bc_wd1e-3", "bc"], cwd=repo, capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr[-3000:]
+    assert sorted({r["algo"] for r in rows_of(out)}) == ["bc", "bc_wd1e-3"] and len(rows_of(out)) == 4
+    bad = subprocess.run(cmd + ["--only", "edm"], cwd=repo, capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "--only: expected variants among" in bad.stderr
+
+
 def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatch):
     """BENCHMARKS.md comes from the CSVs: sections for the files that exist, paired CIs, the published check."""
     from sb3_mbil.benchmark import page
