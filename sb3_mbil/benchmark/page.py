@@ -233,7 +233,13 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
         grid_section("Figure 3: full trajectories, the second expert", "results/classic_control_second.csv", reps,
                      "Each env's second expert pool (`--second-expert`: PPO CartPole-v1, DQN Acrobot-v1, DQN "
                      "LunarLander-v3), N = 1 and 3.", anchors=False),
-        curves_section("Figure 4: MuJoCo, one trajectory", "results/mujoco.csv"),
+        curves_section("Figure 4: MuJoCo, one trajectory, every Box-capable algorithm", "results/figure4.csv",
+                       "`bash scripts/run_figure4.sh`: each algorithm's zoo settings (BC, MBIL and MBIL-C on the "
+                       "bounded-mean policy with a linearly decaying learning rate), 50 000 updates, seeds 0-4. "
+                       "Walker2d-v4 and Ant-v4 join when their retrained experts' pools ship."),
+        curves_section("Figure 4, the first backbone: MBIL and BC", "results/mujoco.csv",
+                       "The earlier runs: a linear-output Gaussian mean and a constant learning rate, the previous "
+                       "expert pools of Walker2d-v4 and Ant-v4."),
         peers_section("results/peers.csv"),
     ]
     return "\n".join(s for s in sections if s) + "\n"
