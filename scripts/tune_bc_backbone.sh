@@ -13,6 +13,11 @@ TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, 
 LIN='"learning_rate": "lin_1e-3"'
 python scripts/run_curves.py --envs Hopper-v4 HalfCheetah-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}]}"
+# two more tuning seeds for the decision between the zoo's BC and the bounded mean with a decaying learning rate
+# (Hopper's seeds 100-102 of the zoo's BC are in results/tuning/bounded_mean.csv)
+MORE='{"bc": ["bc", {}], "bc_tanh_lin": ["bc", {'"$LIN, $TANH"'}]}'
+python scripts/run_curves.py --envs Hopper-v4 ${COMMON/100-102/103-104} --variants "$MORE"
+python scripts/run_curves.py --envs HalfCheetah-v4 ${COMMON/100-102/100-104} --variants "$MORE"
 # the same backbone under MBIL and MBIL-C (references on the same draws: results/tuning/mujoco.csv, mbil_norm;
 # results/tuning/mbil_c_hopper.csv)
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
