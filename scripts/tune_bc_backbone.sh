@@ -4,6 +4,9 @@
 # MuJoCo tuning seeds 100-102, one trajectory, 5e4 updates, 10 episodes every 5000. MSE references on the same draws
 # and protocol: results/tuning/bounded_mean.csv (bc, bc_tanh; Hopper-v4). Why weight decay hurts MSE and not NLL:
 # python scripts/weight_decay_scale.py (results/tuning/weight_decay_scale.md). Resumable: rerun to finish.
+# The table: python scripts/curve_summary.py results/tuning/bc_backbone.csv results/tuning/bounded_mean.csv --variants bc \
+#   bc_tanh bc_tanh_lin bc_tanh_nll bc_tanh_nll_wd1e-3 --envs Hopper-v4 HalfCheetah-v4 --last 3 --paired-against bc \
+#   --markdown results/tuning/BACKBONE.md --overwrite
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CSV=results/tuning/bc_backbone.csv

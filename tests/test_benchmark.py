@@ -119,7 +119,9 @@ def test_every_expert_env_has_tuned_settings(algo):
     for env in EXPERTS:
         settings = tuned_settings(algo, env)
         assert isinstance(settings.get("policy_kwargs", {}), dict)  # the zoo's string form, evaluated
-    assert tuned_settings(algo, "Walker2d-v4")["policy_kwargs"] == {"net_arch": [256, 256], "normalize_observations": True}
+    assert tuned_settings(algo, "Walker2d-v4")["policy_kwargs"] == {"net_arch": [256, 256], "normalize_observations": True,
+                                                                    "bounded_mean": True}
+    assert tuned_settings(algo, "Walker2d-v4")["learning_rate"](0.25) == pytest.approx(2.5e-4)  # lin_1e-3
     assert tuned_settings(algo, "Walker2d-v4")["bc_loss"] == "mse"
     # an override in the zoo's string form is evaluated as rl_zoo3 does, with th in scope
     import torch

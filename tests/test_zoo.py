@@ -79,6 +79,9 @@ def test_mujoco_entry_trains_on_its_shipped_pool(algo, tmp_path):
     assert model.policy.normalize_observations and bool(model.policy.obs_stats_set)
     np.testing.assert_allclose(model.policy.obs_mean.numpy(), drawn.mean(0), rtol=1e-5, atol=1e-5)
     assert model.num_timesteps == 20
+    # the backbone (issue 19): a tanh-bounded mean, and the zoo's "lin_1e-3" decayed to 1e-3 / 20 at the last update
+    assert model.policy.bounded_mean
+    assert model.policy.optimizer.param_groups[0]["lr"] == pytest.approx(1e-3 / 20)
 
 
 def test_an_algorithm_without_its_own_sampler_is_refused_at_registration(monkeypatch):
