@@ -8,6 +8,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 from sb3_mbil import load_demonstrations
 from sb3_mbil.benchmark.peers import TorchScriptPolicy, export_draw, run_pair
@@ -37,3 +38,11 @@ def test_a_pair_of_rows_from_the_same_draw_and_evaluation(tmp_path):
     peer = TorchScriptPolicy(tmp_path / "CartPole-v1-N1-seed0" / "policy.pt", gym.make("CartPole-v1").action_space)
     again = evaluate(peer, "CartPole-v1", 3, seed=1_000_000, n_envs=3)
     assert rows[0]["mean_return"] == float(np.mean(again))  # the same evaluation episodes
+
+
+def test_matched_settings_carry_the_zoos_learning_rate_schedule():
+    from sb3_mbil.benchmark.peers import matched_settings
+
+    hopper = matched_settings("Hopper-v4")  # lin_1e-3 in bc.yml: d3rlpy decays its rate the same way
+    assert hopper["learning_rate"] == pytest.approx(1e-3) and hopper["linear_decay"] and hopper["standardize"]
+    assert matched_settings("CartPole-v1")["linear_decay"] is False

@@ -30,6 +30,8 @@ def main():
     p.add_argument("--steps", type=int, default=10_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--standardize", action="store_true", help="d3rlpy's StandardObservationScaler")
+    p.add_argument("--linear-decay", action="store_true",
+                   help="decay the learning rate linearly to 0 over --steps (rl_zoo3's lin_<lr>, as our BC's zoo entry)")
     a = p.parse_args()
     torch.set_num_threads(1)
     d3rlpy.seed(a.seed)
@@ -41,8 +43,26 @@ def main():
     encoder = d3rlpy.models.encoders.VectorEncoderFactory(hidden_units=a.hidden, activation="relu")
     scaler = d3rlpy.preprocessing.StandardObservationScaler() if a.standardize else None
     config_class = d3rlpy.algos.DiscreteBCConfig if a.discrete else d3rlpy.algos.BCConfig
+    extra = {}
+    if a.linear_decay:
+        import dataclasses
+
+        from torch.optim.lr_scheduler import LinearLR
+
+        @dataclasses.dataclass()
+        class LinearDecayFactory(d3rlpy.optimizers.LRSchedulerFactory):
+            total_steps: int
+
+            def create(self, optim):  # update i runs at lr * (1 - i / total_steps), as SB3's progress schedule
+                return LinearLR(optim, start_factor=1.0, end_factor=0.0, total_iters=self.total_steps)
+
+            @staticmethod
+            def get_type() -> str:
+                return "linear_decay"
+
+        extra["optim_factory"] = d3rlpy.optimizers.AdamFactory(lr_scheduler_factory=LinearDecayFactory(a.steps))
     algo = config_class(batch_size=a.batch_size, learning_rate=a.learning_rate, encoder_factory=encoder,
-                        observation_scaler=scaler).create(device=None)
+                        observation_scaler=scaler, **extra).create(device=None)
     os.makedirs(a.out_dir, exist_ok=True)
     algo.build_with_dataset(dataset)  # the networks first: the timing below is the updates alone
     t0 = time.perf_counter()
@@ -55,7 +75,8 @@ def main():
     with open(os.path.join(a.out_dir, "fit.json"), "w") as f:
         json.dump({"fit_seconds": fit_seconds, "steps": a.steps, "d3rlpy": d3rlpy.__version__,
                    "algo": config_class.__name__, "hidden": a.hidden, "batch_size": a.batch_size,
-                   "learning_rate": a.learning_rate, "standardize": a.standardize, "seed": a.seed}, f)
+                   "learning_rate": a.learning_rate, "linear_decay": a.linear_decay, "standardize": a.standardize,
+                   "seed": a.seed}, f)
 
 
 if __name__ == "__main__":

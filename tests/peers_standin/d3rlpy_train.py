@@ -25,6 +25,7 @@ for flag in ("--data", "--out-dir", "--batch-size", "--learning-rate", "--steps"
 p.add_argument("--hidden", nargs="+")
 p.add_argument("--discrete", action="store_true")
 p.add_argument("--standardize", action="store_true")
+p.add_argument("--linear-decay", action="store_true")
 a = p.parse_args()
 d = np.load(a.data)
 assert d["terminals"].sum() + d["timeouts"].sum() == 1, "one episode, flagged once at its end"
