@@ -46,3 +46,4 @@ def test_matched_settings_carry_the_zoos_learning_rate_schedule():
     hopper = matched_settings("Hopper-v4")  # lin_1e-3 in bc.yml: d3rlpy decays its rate the same way
     assert hopper["learning_rate"] == pytest.approx(1e-3) and hopper["linear_decay"] and hopper["standardize"]
     assert matched_settings("CartPole-v1")["linear_decay"] is False
+    assert matched_settings("CartPole-v1")["weight_decay"] == pytest.approx(1e-3)  # bc.yml: both libraries decay

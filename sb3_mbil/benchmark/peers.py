@@ -81,6 +81,7 @@ def matched_settings(env_id: str) -> dict[str, Any]:
     linear_decay = callable(lr)  # rl_zoo3's "lin_<lr>": d3rlpy gets the same linear decay (d3rlpy_train.py)
     return {"hidden": list(kwargs.get("net_arch", [64, 64])), "batch_size": int(s.get("batch_size", 64)),
             "learning_rate": float(lr(1.0) if linear_decay else lr), "linear_decay": linear_decay,
+            "weight_decay": float(s.get("weight_decay", 0.0)),
             "steps": int(float(s["n_timesteps"])), "standardize": bool(kwargs.get("normalize_observations", False))}
 
 
@@ -109,6 +110,7 @@ def run_pair(env_id: str, n_trajectories: int, seed: int, python: str, workdir: 
     cmd += ["--discrete"] if discrete else []
     cmd += ["--standardize"] if shared["standardize"] else []
     cmd += ["--linear-decay"] if shared["linear_decay"] else []
+    cmd += ["--weight-decay", str(shared["weight_decay"])]
     out = subprocess.run(cmd, capture_output=True, text=True)
     if out.returncode != 0:
         raise RuntimeError(f"d3rlpy training failed (exit {out.returncode}): {out.stderr.strip()[-1500:]}")

@@ -30,6 +30,7 @@ def main():
     p.add_argument("--steps", type=int, default=10_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--standardize", action="store_true", help="d3rlpy's StandardObservationScaler")
+    p.add_argument("--weight-decay", type=float, default=0.0, help="Adam's L2 weight decay, as our BC's weight_decay")
     p.add_argument("--linear-decay", action="store_true",
                    help="decay the learning rate linearly to 0 over --steps (rl_zoo3's lin_<lr>, as our BC's zoo entry)")
     a = p.parse_args()
@@ -43,7 +44,7 @@ def main():
     encoder = d3rlpy.models.encoders.VectorEncoderFactory(hidden_units=a.hidden, activation="relu")
     scaler = d3rlpy.preprocessing.StandardObservationScaler() if a.standardize else None
     config_class = d3rlpy.algos.DiscreteBCConfig if a.discrete else d3rlpy.algos.BCConfig
-    extra = {}
+    scheduler = None
     if a.linear_decay:
         import dataclasses
 
@@ -60,9 +61,10 @@ def main():
             def get_type() -> str:
                 return "linear_decay"
 
-        extra["optim_factory"] = d3rlpy.optimizers.AdamFactory(lr_scheduler_factory=LinearDecayFactory(a.steps))
+        scheduler = LinearDecayFactory(a.steps)
+    optim = d3rlpy.optimizers.AdamFactory(weight_decay=a.weight_decay, lr_scheduler_factory=scheduler)
     algo = config_class(batch_size=a.batch_size, learning_rate=a.learning_rate, encoder_factory=encoder,
-                        observation_scaler=scaler, **extra).create(device=None)
+                        observation_scaler=scaler, optim_factory=optim).create(device=None)
     os.makedirs(a.out_dir, exist_ok=True)
     algo.build_with_dataset(dataset)  # the networks first: the timing below is the updates alone
     t0 = time.perf_counter()
@@ -75,7 +77,7 @@ def main():
     with open(os.path.join(a.out_dir, "fit.json"), "w") as f:
         json.dump({"fit_seconds": fit_seconds, "steps": a.steps, "d3rlpy": d3rlpy.__version__,
                    "algo": config_class.__name__, "hidden": a.hidden, "batch_size": a.batch_size,
-                   "learning_rate": a.learning_rate, "linear_decay": a.linear_decay, "standardize": a.standardize,
+                   "learning_rate": a.learning_rate, "weight_decay": a.weight_decay, "linear_decay": a.linear_decay, "standardize": a.standardize,
                    "seed": a.seed}, f)
 
 

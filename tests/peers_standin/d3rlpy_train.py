@@ -26,6 +26,7 @@ p.add_argument("--hidden", nargs="+")
 p.add_argument("--discrete", action="store_true")
 p.add_argument("--standardize", action="store_true")
 p.add_argument("--linear-decay", action="store_true")
+p.add_argument("--weight-decay", type=float)
 a = p.parse_args()
 d = np.load(a.data)
 assert d["terminals"].sum() + d["timeouts"].sum() == 1, "one episode, flagged once at its end"
