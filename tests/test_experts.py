@@ -283,3 +283,20 @@ def test_stop_at_return_ends_zoo_training_early(tmp_path, monkeypatch, caplog):
     # training is not silent: each of rl_zoo3's evaluations is reported as progress
     assert any(r.getMessage().startswith("expert dqn on CartPole-v1: 200 / 2000 steps, evaluation return")
                for r in caplog.records), [r.getMessage() for r in caplog.records]
+
+
+def test_the_stop_check_uses_the_acceptance_episode_count(monkeypatch):
+    """Training stops where acceptance would pass: with a full-episode share, the stop check runs on as many
+    episodes as acceptance (Walker2d-v4 once stopped at 20 of 20 to the time limit and then had 91% of 100)."""
+    from sb3_mbil.experts import generate
+
+    seen = {}
+
+    def fake_train(env_id, algo, seed, n_timesteps, **kwargs):
+        seen.update(kwargs)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(generate, "train_zoo_expert", fake_train)
+    with pytest.raises(RuntimeError, match="stop here"):
+        generate.get_expert("Walker2d-v4", source="zoo", algo="sac", n_eval_episodes=100)
+    assert seen["stop_eval_episodes"] == 100 and seen["min_full_fraction"] == 0.95

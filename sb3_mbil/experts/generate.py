@@ -201,7 +201,7 @@ def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
                      verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None,
-                     min_full_fraction: float = 0.0) -> Expert:
+                     min_full_fraction: float = 0.0, stop_eval_episodes: int = 20) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
@@ -216,6 +216,8 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param min_full_fraction: with ``stop_at_return``, stop only once this share of 20 evaluation episodes also
         runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
         instead of the zoo's best-return checkpoint.
+    :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
+        that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)
     """
     folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
     runs_dir = folder / algo
@@ -255,7 +257,7 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         if stop_at_return is not None:
             stop = {"min_return": float(stop_at_return), "eval_freq": eval_freq}
             if min_full_fraction > 0:
-                stop.update(min_full_fraction=float(min_full_fraction), n_eval_episodes=20)
+                stop.update(min_full_fraction=float(min_full_fraction), n_eval_episodes=int(stop_eval_episodes))
             callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": stop})
         hyperparams = [f"callback:{callbacks!r}"] if callbacks else []
         if resume is not None and _off_policy(algo):
@@ -460,7 +462,8 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
     if threshold is None:
         logger.warning("no return threshold for %s: the expert is accepted whatever it scores (pass min_return)", env_id)
     zoo_kwargs = {"save_freq": spec.save_freq, "stop_at_return": spec.stop_at_return,
-                  "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction} \
+                  "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction,
+                  "stop_eval_episodes": n_eval_episodes} \
         if spec and spec.algo == algo else {}
     min_full = min_full_fraction if min_full_fraction is not None else (
         spec.min_full_fraction if spec and spec.algo == algo else 0.0)
