@@ -45,7 +45,6 @@ def parse_variants(text: str) -> dict[str, tuple[str, dict[str, Any]]]:
     """Variants from JSON, ``{"name": ["algo", {settings}]}`` (e.g. tuning runs beside the figures' variants)."""
     import json
 
-
     try:
         raw = json.loads(text)
     except json.JSONDecodeError as e:
