@@ -47,3 +47,21 @@ def test_matched_settings_carry_the_zoos_learning_rate_schedule():
     assert hopper["learning_rate"] == pytest.approx(1e-3) and hopper["linear_decay"] and hopper["standardize"]
     assert matched_settings("CartPole-v1")["linear_decay"] is False
     assert matched_settings("CartPole-v1")["weight_decay"] == pytest.approx(1e-3)  # bc.yml: both libraries decay
+
+
+def test_peers_section_pairs_each_library_with_ours_on_the_same_seeds(tmp_path):
+    from sb3_mbil.benchmark.page import peers_section
+    from sb3_mbil.benchmark.peers import PEER_COLUMNS
+    from sb3_mbil.benchmark.results import append_rows
+
+    path = tmp_path / "peers.csv"
+    rows = [{"library": lib, "algo": "BC", "env": "LunarLander-v3", "n_trajectories": 1, "seed": seed,
+             "mean_return": ret, "std_return": 0.0, "n_episodes": 10, "updates": 100, "fit_seconds": t,
+             "seconds_per_update": t / 100, "settings": "", "commit": "abc"}
+            for seed, (ours, theirs) in enumerate([(100.0, 130.0), (150.0, 170.0), (90.0, 80.0)])
+            for lib, ret, t in (("sb3_mbil", ours, 1.0), ("d3rlpy 2.8.1", theirs, 2.0))]
+    append_rows(str(path), rows, PEER_COLUMNS)
+    text = peers_section(str(path))
+    # differences +30, +20, -10: mean +13.3, above on 2 of 3; the speed ratio is 2.00
+    assert "| LunarLander-v3 | 1 | d3rlpy 2.8.1 | 126.7 (3) | 20.00 | 2.00 | +13.3 [" in text
+    assert "above on 2 of 3 |" in text

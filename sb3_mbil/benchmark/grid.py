@@ -78,16 +78,19 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
 
         settings["policy_kwargs"] = eval(settings["policy_kwargs"], {"dict": dict, "th": torch, "nn": torch.nn})
     if isinstance(settings.get("learning_rate"), str):
-        # "lin_1e-3", a schedule as rl_zoo3 reads it (decays linearly to 0 over the run), with rl_zoo3's own parser
-        from rl_zoo3.exp_manager import ExperimentManager
+        # "lin_1e-3": rl_zoo3's linear schedule (decays to 0 over the run); rl_zoo3 reads any prefix as linear, we
+        # accept only "lin_"
+        from rl_zoo3.utils import linear_schedule
 
+        prefix, _, value = settings["learning_rate"].partition("_")
         try:
-            if not settings["learning_rate"].startswith("lin_"):  # rl_zoo3 reads any prefix as linear
-                raise ValueError
-            settings.update(ExperimentManager._preprocess_schedules({"learning_rate": settings["learning_rate"]}))
+            initial = float(value)
         except ValueError:
+            initial = None
+        if prefix != "lin" or initial is None:
             raise ValueError(f"learning_rate: expected a number or 'lin_<initial value>', found "
-                             f"{settings['learning_rate']!r}") from None
+                             f"{settings['learning_rate']!r}")
+        settings["learning_rate"] = linear_schedule(initial)
     return settings
 
 

@@ -195,15 +195,30 @@ def peers_section(path: str) -> str:
             (int(r["seed"]), float(r["mean_return"]), float(r["seconds_per_update"])))
     lines = [title, "", f"From `{path}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}): the same draws, "
              "the same evaluation episodes, our BC's zoo settings for both; the speed ratio is d3rlpy's time per update "
-             "over ours, measured in the same run.", "",
-             "| env | N | library | mean return (seeds) | median ms / update | median speed ratio |", "|---|---|---|---|---|---|"]
+             "over ours, measured in the same run; the paired difference is the library's return minus ours on the "
+             "same seeds, with its 95% interval (Student's t over seeds) and the seeds where it is above ours.", "",
+             "| env | N | library | mean return (seeds) | median ms / update | median speed ratio | minus ours, paired |",
+             "|---|---|---|---|---|---|---|"]
     for (env, n), libs in sorted(g.items()):
         ours = {s: t for s, _, t in libs.get("sb3_mbil", [])}
+        ours_return = {s: v for s, v, _ in libs.get("sb3_mbil", [])}
         for lib, vals in sorted(libs.items()):
             ratios = [t / ours[s] for s, _, t in vals if s in ours and ours[s] > 0]
+            d = np.array([v - ours_return[s] for s, v, _ in vals if s in ours_return])
             lines.append(f"| {env} | {n} | {lib} | {np.mean([v for _, v, _ in vals]):.1f} ({len(vals)}) | "
-                         f"{1e3 * np.median([t for _, _, t in vals]):.2f} | {np.median(ratios):.2f} |")
+                         f"{1e3 * np.median([t for _, _, t in vals]):.2f} | {np.median(ratios):.2f} | "
+                         f"{'-' if lib == 'sb3_mbil' else paired_difference(d)} |")
     return "\n".join(lines) + "\n"
+
+
+def paired_difference(d: np.ndarray) -> str:
+    """Mean of paired differences, its 95% t interval over seeds and how many are above zero."""
+    from scipy import stats
+
+    if len(d) < 2:
+        return f"{d.mean():+.1f} (one seed)" if len(d) else "-"
+    lo, hi = (d[0], d[0]) if np.allclose(d, d[0]) else stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+    return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}], above on {int((d > 0).sum())} of {len(d)}"
 
 
 def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes.md") -> str:

@@ -213,8 +213,8 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param stop_at_return: stop training once the deterministic mean return over 10 episodes
         reaches this value (checked every ``budget / n_evaluations`` steps); the zoo's step budget
         stays the upper bound.
-    :param min_full_fraction: with ``stop_at_return``, stop only once this share of 20 evaluation episodes also
-        runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
+    :param min_full_fraction: with ``stop_at_return``, stop only once this share of the ``stop_eval_episodes``
+        evaluation episodes also runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
         instead of the zoo's best-return checkpoint.
     :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
         that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)

@@ -77,8 +77,8 @@ def main():
     with open(os.path.join(a.out_dir, "fit.json"), "w") as f:
         json.dump({"fit_seconds": fit_seconds, "steps": a.steps, "d3rlpy": d3rlpy.__version__,
                    "algo": config_class.__name__, "hidden": a.hidden, "batch_size": a.batch_size,
-                   "learning_rate": a.learning_rate, "weight_decay": a.weight_decay, "linear_decay": a.linear_decay, "standardize": a.standardize,
-                   "seed": a.seed}, f)
+                   "learning_rate": a.learning_rate, "weight_decay": a.weight_decay, "linear_decay": a.linear_decay,
+                   "standardize": a.standardize, "seed": a.seed}, f)
 
 
 if __name__ == "__main__":
