@@ -300,3 +300,26 @@ def test_the_stop_check_uses_the_acceptance_episode_count(monkeypatch):
     with pytest.raises(RuntimeError, match="stop here"):
         generate.get_expert("Walker2d-v4", source="zoo", algo="sac", n_eval_episodes=100)
     assert seen["stop_eval_episodes"] == 100 and seen["min_full_fraction"] == 0.95
+
+
+def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monkeypatch):
+    """Acceptance refused the model a stop check passed (Walker2d-v4: 20 of 20 episodes to the time limit, then 91%
+    of 100): the run continues from its checkpoint on the remaining budget instead of starting a new seed."""
+    import json
+
+    from sb3_mbil.experts import generate
+
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
+    kwargs = dict(seed=0, n_timesteps=2000, save_freq=200, n_evaluations=10, stop_at_return=-1e9)
+    generate.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
+    folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n2000"
+    assert (folder / "dqn" / "CartPole-v1_1" / "CartPole-v1.zip").is_file()
+    assert generate.refuse_zoo_run("CartPole-v1", "dqn", 0, 2000)
+    expert = generate.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
+    progress = json.loads((folder / "progress.json").read_text())
+    assert progress["refused"] == ["CartPole-v1_1"] and progress["steps_before"]["CartPole-v1_2"] == 200
+    assert (folder / "dqn" / "CartPole-v1_2" / "CartPole-v1.zip").is_file() and expert.source == "zoo:dqn seed=0"
+    assert "Loading pretrained agent" in folder.with_suffix(".log").read_text()
+    # a run that used its whole budget cannot continue: the caller moves to the next seed
+    generate.train_zoo_expert("CartPole-v1", "dqn", seed=1, n_timesteps=200, save_freq=100, n_evaluations=2)
+    assert not generate.refuse_zoo_run("CartPole-v1", "dqn", 1, 200)

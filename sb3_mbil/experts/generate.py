@@ -318,9 +318,39 @@ def _run_ids(runs_dir: Path, env_id: str) -> list[int]:
 
 
 def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
-    """The latest run saved its final model (budget used up, or stopped at the return threshold)."""
+    """The latest run saved its final model (budget used up, or stopped at the return threshold) and acceptance
+    did not refuse that model while budget remained (:func:`refuse_zoo_run`)."""
     ids = _run_ids(runs_dir, env_id)
-    return bool(ids) and (runs_dir / f"{env_id}_{ids[-1]}" / f"{env_id}.zip").is_file()
+    if not ids or not (runs_dir / f"{env_id}_{ids[-1]}" / f"{env_id}.zip").is_file():
+        return False
+    progress_file = runs_dir.parent / "progress.json"
+    refused = json.loads(progress_file.read_text()).get("refused", []) if progress_file.is_file() else []
+    return f"{env_id}_{ids[-1]}" not in refused
+
+
+def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = None) -> bool:
+    """Acceptance refused the final model of this cached zoo run: if the run stopped before its step budget and left a
+    checkpoint with its replay buffer, mark it so that the next :func:`train_zoo_expert` continues it from there
+    (rl_zoo3's ``-i``) instead of reusing the refused model, and return True. Otherwise (budget used up, or nothing
+    to continue from) return False: the caller moves to another seed.
+
+    A stop check on fewer episodes than acceptance (20 where acceptance runs 100) can pass on a model that acceptance
+    then refuses; the remaining budget, not a new seed, is the cheap way on."""
+    folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
+    runs_dir = folder / algo
+    ids = _run_ids(runs_dir, env_id)
+    resume = _latest_checkpoint(runs_dir, env_id)
+    progress_file = folder / "progress.json"
+    if not ids or resume is None or not progress_file.is_file():
+        return False
+    progress = json.loads(progress_file.read_text())
+    ckpt, steps = resume
+    done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+    if done >= (n_timesteps or _zoo_budget(env_id, algo)):
+        return False
+    progress.setdefault("refused", []).append(f"{env_id}_{ids[-1]}")
+    _write_json(progress_file, progress)
+    return True
 
 
 def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
@@ -468,8 +498,8 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
     min_full = min_full_fraction if min_full_fraction is not None else (
         spec.min_full_fraction if spec and spec.algo == algo else 0.0)
     attempts = []
-    for attempt in range(max_attempts):
-        attempt_seed = seed + attempt
+    attempt_seed = seed
+    for _ in range(max_attempts):
         if source == "hub":
             try:
                 expert = load_hub_expert(env_id, algo)
@@ -494,6 +524,9 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
             return expert, record
         if source != "zoo":
             break
+        # a run that stopped early (its stop check passed) continues on its remaining budget; otherwise the next seed
+        if not refuse_zoo_run(env_id, algo, attempt_seed, n_timesteps):
+            attempt_seed += 1
     raise ValueError(
         f"expert for {env_id}: expected a mean return >= {threshold} over {n_eval_episodes} episodes"
         + (f" with {min_full:.0%} of them to the time limit" if min_full else "")
