@@ -4,6 +4,8 @@ reference variant on the same seeds; with --draws, each seed's expert trajectory
 
     python scripts/curve_summary.py results/tuning/mujoco.csv --last 3 --paired-against bc
     python scripts/curve_summary.py results/mujoco.csv --paired-against bc --draws
+    python scripts/curve_summary.py results/figure4.csv results/mujoco.csv --tags new old --variants bc \
+        --envs Hopper-v4 HalfCheetah-v4 --paired-against bc@old
     python scripts/curve_summary.py results/tuning/baselines_hopper.csv results/tuning/bounded_mean.csv \
         --variants iq_learn valuedice odice bc bc_tanh --envs Hopper-v4 --until 20000 --last 1 --paired-against bc
 """
@@ -22,6 +24,9 @@ def main(argv=None):
     p.add_argument("--heldout", action="store_true",
                    help="also: the return where the held-out BC loss was lowest (runs made with run_curves.py --holdout)")
     p.add_argument("--variants", nargs="+", default=None, help="only these variants (the CSVs' algo column)")
+    p.add_argument("--tags", nargs="+", default=None,
+                   help="one tag per CSV: its variants become VARIANT@TAG, so that files with the same variant names "
+                        "(two backbones, two commits) are told apart and paired on the same seeds")
     p.add_argument("--envs", nargs="+", default=None, help="only these envs")
     p.add_argument("--until", type=positive_int, default=None,
                    help="only the evaluations up to this gradient step (compare runs of different lengths)")
@@ -32,14 +37,19 @@ def main(argv=None):
     from sb3_mbil.benchmark.curves import curve_table, draw_table, heldout_table, paired_table, pool_experts
     from sb3_mbil.benchmark.results import read_result_rows
 
+    if a.tags is not None and len(a.tags) != len(a.csv):
+        p.error(f"--tags: expected one tag per CSV ({len(a.csv)}), found {len(a.tags)}")
     rows = []
-    for path in a.csv:
+    for k, path in enumerate(a.csv):
         try:
-            rows += read_result_rows(path)
+            file_rows = read_result_rows(path)
         except (ValueError, FileNotFoundError) as e:
             p.error(f"csv: {e}")
-    if a.variants:
-        rows = [r for r in rows if r["algo"] in a.variants]
+        if a.variants:
+            file_rows = [r for r in file_rows if r["algo"] in a.variants]
+        if a.tags:
+            file_rows = [{**r, "algo": f"{r['algo']}@{a.tags[k]}"} for r in file_rows]
+        rows += file_rows
     if a.envs:
         rows = [r for r in rows if r["env"] in a.envs]
     if a.until:

@@ -2,6 +2,9 @@
 
 import csv
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -383,3 +386,23 @@ def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatc
     assert "| mbil | CartPole-v1 | 1 | 4 | +130.0 | [+130.0, +130.0] | 0 of 4 | above |" in text
     # BC at 171.5 on average against the published 170 at N=1: within 0.15 normalised
     assert "| bc | CartPole-v1 | 1 | 171.5 (4) | 170 |" in text and "Within 0.15 of the published value: 1 of 1" in text
+
+
+def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path):
+    """--tags: BC of two backbones, in two files under the same name, paired seed by seed."""
+    repo = Path(__file__).resolve().parent.parent
+    fields = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit"]
+    for name, base in (("new.csv", 300.0), ("old.csv", 100.0)):
+        with open(tmp_path / name, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=fields)
+            w.writeheader()
+            for s in (0, 1, 2):
+                w.writerow({"algo": "bc", "env": "CartPole-v1", "seed": s, "gradient_step": 500, "mean_return": base + s,
+                            "n_episodes": 1, "n_trajectories": 1, "settings": "[('algo', 'bc')]", "commit": "abc"})
+    cmd = [sys.executable, str(repo / "scripts/curve_summary.py"), "new.csv", "old.csv", "--last", "1"]
+    out = subprocess.run(cmd + ["--tags", "new", "old", "--paired-against", "bc@old"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "| CartPole-v1 | bc@new | 3 | 301 | 200 +- 0 | 0 of 3 |" in out.stdout
+    out = subprocess.run(cmd + ["--tags", "new"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert out.returncode != 0 and "--tags: expected one tag per CSV (2), found 1" in out.stderr
