@@ -108,6 +108,25 @@ def test_stop_on_return_can_require_episodes_to_the_time_limit(min_full_fraction
     assert (model.num_timesteps < 256) == stops
 
 
+def test_a_stop_check_ends_once_too_many_episodes_fell():
+    """A 100-episode check that requires 95% to the time limit has failed after 6 falls: with chunks of 4 episodes
+    it stops after the second chunk."""
+    from stable_baselines3 import PPO
+
+    from sb3_mbil.common.callbacks import StopTrainingOnReturn
+
+    model = PPO("MlpPolicy", "CartPole-v1", n_steps=64, batch_size=64, n_epochs=1, seed=0)
+    with torch.no_grad():  # always push left
+        model.policy.action_net.weight.zero_()
+        model.policy.action_net.bias.copy_(torch.tensor([10.0, -10.0]))
+    stop = StopTrainingOnReturn(min_return=-1e9, eval_freq=64, n_eval_episodes=100, min_full_fraction=0.95,
+                                chunk_episodes=4, verbose=0)
+    model.learn(64, callback=stop)
+    assert stop.last_eval_episodes == 8 and stop.last_full_fraction == 0.0
+    with pytest.raises(ValueError, match="chunk_episodes: expected an integer >= 1, found 0"):
+        StopTrainingOnReturn(min_return=0.0, chunk_episodes=0)
+
+
 def test_second_expert_pools_by_name_and_algorithm():
     from sb3_mbil.common.demonstrations import pool_name
 

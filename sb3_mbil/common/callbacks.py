@@ -24,12 +24,19 @@ class StopTrainingOnReturn(BaseCallback):
     :param eval_freq: calls between evaluations (env steps for one env)
     :param n_eval_episodes: deterministic evaluation episodes
     :param min_full_fraction: share of the evaluation episodes that must reach the env's time limit (not end in a
-        terminal state) before training stops; 0 checks the return alone
+        terminal state) before training stops; 0 checks the return alone. The episodes run in chunks of
+        ``chunk_episodes``, and a check stops as soon as more episodes have fallen than this share allows (it has
+        failed whatever the rest do).
+    :param chunk_episodes: episodes per chunk of that check
     """
 
     def __init__(self, min_return: float, eval_freq: int = 10_000, n_eval_episodes: int = 10,
-                 min_full_fraction: float = 0.0, verbose: int = 1):
+                 min_full_fraction: float = 0.0, chunk_episodes: int = 10, verbose: int = 1):
         super().__init__(verbose)
+        if int(chunk_episodes) < 1:
+            raise ValueError(f"chunk_episodes: expected an integer >= 1, found {chunk_episodes!r}")
+        self.chunk_episodes = int(chunk_episodes)
+        self.last_eval_episodes = 0
         self.min_return = float(min_return)
         self.min_full_fraction = float(min_full_fraction)
         self.last_full_fraction: float | None = None
@@ -52,10 +59,22 @@ class StopTrainingOnReturn(BaseCallback):
         if self.n_calls % self.eval_freq != 0:
             return True
         sync_envs_normalization(self.training_env, self.eval_env)
-        returns, lengths = evaluate_policy(self.model, self.eval_env, self.n_eval_episodes, deterministic=True,
-                                           return_episode_rewards=True)
+        # episodes in chunks: once more episodes have fallen than min_full_fraction allows, the check has failed
+        # and the rest is not run (a 100-episode check of a model that falls often costs a chunk or two)
+        allowed_falls = int(np.floor(self.n_eval_episodes * (1.0 - self.min_full_fraction) + 1e-9))
+        returns: list[float] = []
+        falls = 0
+        while len(returns) < self.n_eval_episodes:
+            n = min(self.chunk_episodes, self.n_eval_episodes - len(returns))
+            chunk_returns, lengths = evaluate_policy(self.model, self.eval_env, n, deterministic=True,
+                                                     return_episode_rewards=True)
+            returns += [float(r) for r in chunk_returns]
+            falls += int(np.sum(np.asarray(lengths) < self.time_limit)) if self.time_limit else 0
+            if self.min_full_fraction > 0 and falls > allowed_falls:
+                break
+        self.last_eval_episodes = len(returns)
         self.last_mean_return = float(np.mean(returns))
-        self.last_full_fraction = float(np.mean(np.asarray(lengths) >= self.time_limit)) if self.time_limit else 1.0
+        self.last_full_fraction = 1.0 - falls / len(returns)
         self.logger.record("eval/stop_check_return", self.last_mean_return)
         self.logger.record("eval/stop_check_full_fraction", self.last_full_fraction)
         if self.last_mean_return >= self.min_return and self.last_full_fraction >= self.min_full_fraction:
