@@ -319,6 +319,7 @@ def test_the_stop_check_uses_the_acceptance_episode_count(monkeypatch):
     with pytest.raises(RuntimeError, match="stop here"):
         generate.get_expert("Walker2d-v4", source="zoo", algo="sac", n_eval_episodes=100)
     assert seen["stop_eval_episodes"] == 100 and seen["min_full_fraction"] == 0.95
+    assert seen["max_timesteps"] == 2_000_000  # beyond the zoo's 1e6 steps, where the 95% rule needs it
 
 
 def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monkeypatch):

@@ -54,9 +54,12 @@ class ExpertSpec:
     stop_at_return: float | None = None
     n_evaluations: int = 20
     #: share of the acceptance episodes that must run to the time limit (not fall); with it, training also stops
-    #: only when that share of 20 evaluation episodes does, and the expert is the model training stopped on (the
-    #: zoo's best-return checkpoint does not select for episodes that never fall)
+    #: only when that share of as many evaluation episodes as acceptance runs does, and the expert is the model
+    #: training stopped on (the zoo's best-return checkpoint does not select for episodes that never fall)
     min_full_fraction: float = 0.0
+    #: training steps at most (default: the zoo's ``n_timesteps``); above the zoo's where a SAC agent that meets the
+    #: return still falls in more episodes than ``min_full_fraction`` allows when the zoo's budget runs out
+    max_timesteps: int | None = None
 
 
 # The paper's experts (DQN CartPole, A2C Acrobot, PPO LunarLander), from the RL Zoo.
@@ -69,10 +72,10 @@ EXPERTS: dict[str, ExpertSpec] = {
     "LunarLander-v3": ExpertSpec("ppo", 200.0),
     "Hopper-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3300.0, n_evaluations=40),
     "HalfCheetah-v4": ExpertSpec("sac", 5000.0, save_freq=25_000, stop_at_return=5500.0, n_evaluations=40),
-    "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=40,
-                              min_full_fraction=0.95),
-    "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=40,
-                         min_full_fraction=0.95),
+    "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=80,
+                              min_full_fraction=0.95, max_timesteps=2_000_000),
+    "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=80,
+                         min_full_fraction=0.95, max_timesteps=2_000_000),
 }
 
 
@@ -201,7 +204,8 @@ def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
                      verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None,
-                     min_full_fraction: float = 0.0, stop_eval_episodes: int = 20) -> Expert:
+                     min_full_fraction: float = 0.0, stop_eval_episodes: int = 20,
+                     max_timesteps: int | None = None) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
@@ -216,6 +220,8 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param min_full_fraction: with ``stop_at_return``, stop only once this share of the ``stop_eval_episodes``
         evaluation episodes also runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
         instead of the zoo's best-return checkpoint.
+    :param max_timesteps: the step budget of a cached run (``n_timesteps`` names a separate run instead); default
+        the zoo's ``n_timesteps``
     :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
         that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)
     """
@@ -223,7 +229,7 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     runs_dir = folder / algo
     progress_file = folder / "progress.json"
     while not _zoo_finished(runs_dir, env_id):
-        budget = n_timesteps or _zoo_budget(env_id, algo)
+        budget = n_timesteps or max_timesteps or _zoo_budget(env_id, algo)
         eval_freq = max(budget // n_evaluations, 1)
         cmd = [
             sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env", env_id, "--seed", str(seed),
@@ -328,7 +334,8 @@ def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
     return f"{env_id}_{ids[-1]}" not in refused
 
 
-def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = None) -> bool:
+def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = None,
+                   max_timesteps: int | None = None) -> bool:
     """Acceptance refused the final model of this cached zoo run: if the run stopped before its step budget and left a
     checkpoint with its replay buffer, mark it so that the next :func:`train_zoo_expert` continues it from there
     (rl_zoo3's ``-i``) instead of reusing the refused model, and return True. Otherwise (budget used up, or nothing
@@ -346,7 +353,7 @@ def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = 
     progress = json.loads(progress_file.read_text())
     ckpt, steps = resume
     done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
-    if done >= (n_timesteps or _zoo_budget(env_id, algo)):
+    if done >= (n_timesteps or max_timesteps or _zoo_budget(env_id, algo)):
         return False
     progress.setdefault("refused", []).append(f"{env_id}_{ids[-1]}")
     _write_json(progress_file, progress)
@@ -493,7 +500,7 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
         logger.warning("no return threshold for %s: the expert is accepted whatever it scores (pass min_return)", env_id)
     zoo_kwargs = {"save_freq": spec.save_freq, "stop_at_return": spec.stop_at_return,
                   "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction,
-                  "stop_eval_episodes": n_eval_episodes} \
+                  "stop_eval_episodes": n_eval_episodes, "max_timesteps": spec.max_timesteps} \
         if spec and spec.algo == algo else {}
     min_full = min_full_fraction if min_full_fraction is not None else (
         spec.min_full_fraction if spec and spec.algo == algo else 0.0)
@@ -525,7 +532,7 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
         if source != "zoo":
             break
         # a run that stopped early (its stop check passed) continues on its remaining budget; otherwise the next seed
-        if not refuse_zoo_run(env_id, algo, attempt_seed, n_timesteps):
+        if not refuse_zoo_run(env_id, algo, attempt_seed, n_timesteps, zoo_kwargs.get("max_timesteps")):
             attempt_seed += 1
     raise ValueError(
         f"expert for {env_id}: expected a mean return >= {threshold} over {n_eval_episodes} episodes"
