@@ -406,3 +406,23 @@ def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path)
     assert "| CartPole-v1 | bc@new | 3 | 301 | 200 +- 0 | 0 of 3 |" in out.stdout
     out = subprocess.run(cmd + ["--tags", "new"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert out.returncode != 0 and "--tags: expected one tag per CSV (2), found 1" in out.stderr
+
+
+def test_rows_are_measured_against_the_pool_version_of_their_commit(monkeypatch):
+    """Walker2d-v4's pool was regenerated: rows run on the first pool (including those run while it was on disk but
+    not yet committed, commit 98c88f4) are measured against it, rows of today against the pool installed now."""
+    from sb3_mbil import load_demonstrations
+    from sb3_mbil.benchmark.curves import load_pool_version, pool_experts, pool_version
+
+    monkeypatch.chdir(Path(__file__).resolve().parent.parent)  # the checkout whose history holds the pools
+    old = "e357c8b8c3c0f375d6926fb2cc9a0dba0d15b599"  # the first Walker2d-v4 pool, committed at 49a8ea7
+    assert pool_version("Walker2d-v4", "98c88f4") == old and pool_version("Walker2d-v4", "e3d427e-dirty") == old
+    assert pool_version("Walker2d-v4", "unknown") == "current" and pool_version("Hopper-v4", "e3d427e") == "current"
+    first = load_pool_version("Walker2d-v4", old)
+    assert abs(first.episode_returns.mean() - 4024.4) < 0.1 and first.metadata["pool"] == "Walker2d-v4@e357c8b8c3"
+    row = {"env": "Walker2d-v4", "settings": "[('algo', 'bc')]"}
+    assert pool_experts([{**row, "commit": "e3d427e"}])["Walker2d-v4"] == pytest.approx(first.episode_returns.mean())
+    now = load_demonstrations("Walker2d-v4").episode_returns.mean()
+    assert pool_experts([{**row, "commit": "unknown"}])["Walker2d-v4"] == pytest.approx(now)
+    with pytest.raises(ValueError, match="one version of the pool per env"):
+        pool_experts([{**row, "commit": "e3d427e"}, {**row, "commit": "unknown"}])

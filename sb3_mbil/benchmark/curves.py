@@ -229,11 +229,11 @@ def _row_pool(r: dict) -> str:
 
 
 def _git(*args: str) -> bytes | None:
+    """``git`` in the working directory (the checkout whose result files are summarised), or None."""
     import subprocess
-    from pathlib import Path
 
     try:
-        out = subprocess.run(["git", *args], cwd=Path(__file__).resolve().parents[2], capture_output=True, timeout=60)
+        out = subprocess.run(["git", *args], capture_output=True, timeout=60)
     except (OSError, subprocess.SubprocessError):
         return None
     return out.stdout if out.returncode == 0 else None
@@ -241,25 +241,21 @@ def _git(*args: str) -> bytes | None:
 
 def pool_version(name: str, commit: str | None) -> str:
     """The git blob of the shipped pool ``name`` at ``commit`` (a result row's), or ``"current"``: the pool as it
-    is on this machine (the same file, a pool that is not a shipped file, no git checkout, or a commit git does not
-    know). Pools are regenerated (Walker2d-v4 and Ant-v4 by issue 19): a row is measured against the pool it drew
-    from, not the one that replaced it."""
+    is installed (the same file, a pool that is not a shipped file, no git checkout in the working directory, or a
+    commit git does not know). Pools are regenerated (Walker2d-v4 and Ant-v4 by issue 19): a row is measured
+    against the pool it drew from, not the one that replaced it. A pool not yet committed at the row's commit is
+    the version of its next commit (runs start while a new pool is on disk)."""
+    from pathlib import PurePosixPath
+
     from sb3_mbil.common.demonstrations import POOL_DIR
 
     path = POOL_DIR / f"{name}.npz"
     if not commit or commit == "unknown" or not path.is_file():
         return "current"
-    root = _git("rev-parse", "--show-toplevel")
-    if root is None:
-        return "current"
-    try:
-        rel = path.resolve().relative_to(root.decode().strip())
-    except ValueError:
-        return "current"
+    rel = PurePosixPath("sb3_mbil", "data", f"{name}.npz")
     rev = commit.removesuffix("-dirty")
     then = _git("rev-parse", f"{rev}:{rel.as_posix()}")
     if then is None and _git("cat-file", "-e", f"{rev}^{{commit}}") is not None:
-        # not yet committed at the row's commit (runs start while a new pool is on disk): its first commit after
         later = (_git("log", "--reverse", "--format=%H", f"{rev}..HEAD", "--", rel.as_posix()) or b"").split()
         then = _git("rev-parse", f"{later[0].decode()}:{rel.as_posix()}") if later else None
     now = _git("hash-object", str(path))
