@@ -37,3 +37,9 @@ python scripts/run_curves.py --envs HalfCheetah-v4 $COMMON --variants "{
 python scripts/run_curves.py --envs HalfCheetah-v4 ${COMMON/100-102/100-104} --variants "{
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}],
   \"bc_tanh_nll_wd1e-3_lin\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $LIN, $TANH}]}"
+# Walker2d-v4 on its regenerated pool: BC at 0.21 of the expert with the zoo's backbone (Figure 4, seeds 0-2); Li et
+# al.'s BC (the NLL with weight decay 1e-3) on three tuning seeds, against the zoo's backbone on the same draws
+python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
+  \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}],
+  \"bc_tanh_nll_wd1e-3_lin\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $LIN, $TANH}]}"
