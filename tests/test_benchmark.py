@@ -77,6 +77,7 @@ def test_report(tmp_path):
     assert agg["mbil"]["mean"][0] > agg["bc"]["mean"][0]
     lo, hi = agg["mbil"]["iqm"][1], agg["mbil"]["iqm"][2]
     assert lo <= agg["mbil"]["iqm"][0] <= hi
+    assert aggregate(rows, reps=200) == agg  # a seeded bootstrap: the page does not change when regenerated
     plot(rows, str(tmp_path / "fig.png"))
     assert (tmp_path / "fig.png").stat().st_size > 1000
 

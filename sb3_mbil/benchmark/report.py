@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections import defaultdict
 
@@ -93,6 +94,19 @@ def normalised_scores(rows) -> dict[str, np.ndarray]:
     return out
 
 
+@contextlib.contextmanager
+def _seeded_bootstrap(seed: int = 0):
+    """rliable's stratified bootstrap draws from numpy's global generator (its ``random_state`` does not reach its
+    index draws): seed it for the call and put the global state back, so that a page regenerated from the same rows
+    has the same intervals."""
+    state = np.random.get_state()
+    np.random.seed(seed)
+    try:
+        yield
+    finally:
+        np.random.set_state(state)
+
+
 def aggregate(rows, reps: int = 2000) -> dict[str, dict[str, tuple[float, float, float]]]:
     """IQM and mean normalised score with stratified-bootstrap 95% intervals (rliable)."""
     from rliable import library as rly
@@ -102,7 +116,8 @@ def aggregate(rows, reps: int = 2000) -> dict[str, dict[str, tuple[float, float,
     if not scores:
         return {}
     fns = lambda x: np.array([metrics.aggregate_iqm(x), metrics.aggregate_mean(x)])  # noqa: E731
-    point, ci = rly.get_interval_estimates(scores, fns, reps=reps)
+    with _seeded_bootstrap():
+        point, ci = rly.get_interval_estimates(scores, fns, reps=reps)
     return {a: {"iqm": (point[a][0], ci[a][0, 0], ci[a][1, 0]), "mean": (point[a][1], ci[a][0, 1], ci[a][1, 1])} for a in scores}
 
 
@@ -191,7 +206,8 @@ def probability_of_improvement(rows, reference: str = "bc", reps: int = 2000) ->
             pairs[algo] = scores
     if not pairs:
         return {}
-    point, ci = rly.get_interval_estimates(pairs, metrics.probability_of_improvement, reps=reps)
+    with _seeded_bootstrap():
+        point, ci = rly.get_interval_estimates(pairs, metrics.probability_of_improvement, reps=reps)
     return {a: (float(np.squeeze(point[a])), float(np.squeeze(ci[a][0])), float(np.squeeze(ci[a][1]))) for a in pairs}
 
 
