@@ -49,7 +49,8 @@ class ExpertSpec:
     min_return: float
     #: long zoo trainings (MuJoCo): checkpoint with the replay buffer every this many steps, so an
     #: interrupted training continues where it stopped; and stop once the return reaches
-    #: ``stop_at_return`` (deterministic, 10 episodes, checked every ``budget / n_evaluations`` steps)
+    #: ``stop_at_return`` (deterministic, 10 episodes or acceptance's count with ``min_full_fraction``, checked every
+    #: ``budget / n_evaluations`` steps)
     save_freq: int | None = None
     stop_at_return: float | None = None
     n_evaluations: int = 20
@@ -198,8 +199,9 @@ def load_hub_expert(env_id: str, algo: str, org: str = "sb3", online: bool | Non
     return load_expert_file(model_path, env_id, algo, vec_norm_path, source=f"hub:{repo_id}")
 
 
-def zoo_run_folder(env_id: str, algo: str, seed: int) -> Path:
-    return cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}"
+def zoo_run_folder(env_id: str, algo: str, seed: int, n_timesteps: int | None = None) -> Path:
+    """The cache folder of a local zoo training (a run with its own ``n_timesteps`` has its own folder)."""
+    return cache_dir() / "zoo" / (f"{algo}-{env_id}-seed{seed}" + (f"-n{n_timesteps}" if n_timesteps is not None else ""))
 
 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
@@ -214,8 +216,8 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param save_freq: checkpoint (model and replay buffer) every this many steps; an interrupted
         run is then continued from its last checkpoint with rl_zoo3's own continuation (``-i``)
         instead of starting again. Without it an interrupted run starts from scratch.
-    :param stop_at_return: stop training once the deterministic mean return over 10 episodes
-        reaches this value (checked every ``budget / n_evaluations`` steps); the zoo's step budget
+    :param stop_at_return: stop training once the deterministic mean return over 10 episodes (``stop_eval_episodes``
+        with ``min_full_fraction``) reaches this value (checked every ``budget / n_evaluations`` steps); the zoo's step budget
         stays the upper bound.
     :param min_full_fraction: with ``stop_at_return``, stop only once this share of the ``stop_eval_episodes``
         evaluation episodes also runs to the time limit; the expert is then the final model of the newest run (the one training stopped on)
@@ -225,7 +227,7 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
     :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
         that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)
     """
-    folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
+    folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
     runs_dir = folder / algo
     progress_file = folder / "progress.json"
     while not _zoo_finished(runs_dir, env_id):
@@ -343,7 +345,7 @@ def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = 
 
     A stop check on fewer episodes than acceptance (20 where acceptance runs 100) can pass on a model that acceptance
     then refuses; the remaining budget, not a new seed, is the cheap way on."""
-    folder = zoo_run_folder(env_id, algo, seed) if n_timesteps is None else cache_dir() / "zoo" / f"{algo}-{env_id}-seed{seed}-n{n_timesteps}"
+    folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
     runs_dir = folder / algo
     ids = _run_ids(runs_dir, env_id)
     resume = _latest_checkpoint(runs_dir, env_id)
