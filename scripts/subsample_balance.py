@@ -43,9 +43,10 @@ def main(argv=None):
         shares = np.bincount(np.concatenate(actions)) / sum(len(x) for x in actions)
         draws = []
         for seed in range(5):
-            act = np.asarray(d.sample(1, seed=seed)[0].actions).astype(int)
+            draw = d.sample(1, seed=seed)  # the grid's draw, and its kept steps as the published protocol keeps them
+            act = np.asarray(draw.pairs()["actions"]).astype(int)
+            kept = np.asarray(draw.subsample(k).pairs()["actions"]).astype(int)
             top = int(np.bincount(act).argmax())
-            kept = act[::k]
             draws.append(f"{seed}: {np.mean(act == top):.2f} -> {np.mean(kept == top):.2f} ({len(kept)})")
         lines.append(f"| {name} | {lag_agreement(actions, 1):.2f} | {lag_agreement(actions, 2):.2f} | "
                      f"{lag_agreement(actions, k):.2f} | {float(np.sum(shares ** 2)):.2f} | {'; '.join(draws)} |")

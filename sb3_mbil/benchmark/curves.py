@@ -84,11 +84,12 @@ class _Scorer(BaseCallback):
         return True
 
 
-def drawn_demonstrations(env: str, seed: int, n_trajectories: int = 1, pool: str | None = None):
-    """The expert trajectories a run of this seed trains on (drawn from ``pool`` or the env's shipped pool)."""
-    from sb3_mbil import load_demonstrations
-
-    return load_demonstrations(pool or env).sample(n_trajectories, seed=seed)
+def drawn_demonstrations(env: str, seed: int, n_trajectories: int = 1, pool: str | None = None,
+                         commit: str | None = None):
+    """The expert trajectories a run of this seed trains on (drawn from ``pool`` or the env's shipped pool; with
+    ``commit``, a result row's, from the version of the pool that row drew from, :func:`pool_version`)."""
+    name = pool or env
+    return load_pool_version(name, pool_version(name, commit)).sample(n_trajectories, seed=seed)
 
 
 def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_updates: int, eval_every: int = 500,
@@ -316,20 +317,15 @@ def pool_experts(rows: list[dict]) -> dict[str, float]:
 def draw_table(rows: list[dict], last: int = 10) -> str:
     """Markdown: per (env, seed) the trajectories the seed drew (pool indices, return, length) beside each
     variant's final return on them, so a low final can be set against a short or low-return draw."""
-    import ast
 
     finals = final_returns(rows, last)
     variants = sorted({v for _, v in finals})
-    draws = {}
-    for r in rows:
-        settings = dict(ast.literal_eval(r["settings"])) if r.get("settings") else {}
-        draws[(r["env"], int(r["seed"]))] = (int(r.get("n_trajectories") or 1), settings.get("expert_pool"),
-                                             r.get("commit") or "")
+    draws = {(r["env"], int(r["seed"])): (int(r.get("n_trajectories") or 1), _row_pool(r), r.get("commit") or "")
+             for r in rows}
     lines = ["| env | seed | drawn (pool index) | return of the draw (mean) | steps | " + " | ".join(variants) + " |",
              "|---|---|---|---|---|" + "---|" * len(variants)]
     for (env, seed), (n, pool, commit) in sorted(draws.items()):
-        name = pool or env
-        demos = load_pool_version(name, pool_version(name, commit)).sample(n, seed=seed)
+        demos = drawn_demonstrations(env, seed, n, pool, commit)
         cells = [f"{finals[(env, v)][seed][0]:.0f}" if seed in finals.get((env, v), {}) else "" for v in variants]
         lines.append(f"| {env} | {seed} | {', '.join(map(str, demos.metadata['sampled']['indices']))} | "
                      f"{demos.episode_returns.mean():.0f} | {sum(len(t) for t in demos.trajectories)} | " + " | ".join(cells) + " |")
