@@ -7,3 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 20000 --eval-every 5000 --episodes 10 --local \
   --csv results/tuning/baselines_hopper.csv --variants '{"iq_learn": ["iq_learn", {}], "valuedice": ["valuedice", {}], "odice": ["odice", {}]}'
+# ValueDICE at Li et al.'s budget (1e5 updates, where they report Hopper 3560 with one trajectory offline): the
+# 20 000-update look above cannot tell a slow actor (learning rate 1e-5) from a broken one.
+python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 100000 --eval-every 10000 --episodes 10 --local \
+  --csv results/tuning/valuedice_hopper_1e5.csv --variants '{"valuedice": ["valuedice", {}]}'
