@@ -146,10 +146,12 @@ def sample_iq_learn_params(trial, n_actions: int, n_envs: int, additional_args: 
 
 
 def sample_valuedice_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for ValueDICE: actor and nu learning rates, batch size, network size, orthogonal regulariser."""
+    """Sampler for ValueDICE: actor and nu learning rates, batch size, network size, orthogonal regulariser, gradient
+    penalty."""
     params = _common(trial, lr_range=(1e-6, 1e-4))
     params["nu_learning_rate"] = trial.suggest_float("nu_learning_rate", 1e-4, 1e-2, log=True)
     params["orthogonal_weight"] = trial.suggest_categorical("orthogonal_weight", [0.0, 1e-4, 1e-3])
+    params["gradient_penalty"] = trial.suggest_categorical("gradient_penalty", [0.0, 1.0, 10.0])
     return convert_bc_params(params)
 
 

@@ -190,6 +190,34 @@ def test_dice_critics_stay_finite_over_10000_updates(name, env_id, keys, cartpol
             assert np.isfinite(row[key]) and abs(row[key]) < 1e4, (key, row)
 
 
+def test_valuedice_gradient_penalty_holds_nu_near_unit_slope_on_expert_inputs(pendulum_data):
+    """With the gradient penalty on interpolates of expert inputs, ||grad_x nu|| stays near 1 at the expert's
+    inputs; without it (the offline default) nu steepens freely. The penalty is logged."""
+    from stable_baselines3.common.logger import KVWriter, Logger
+
+    from sb3_mbil import ValueDICE
+
+    distance_from_one, logged = {}, []
+
+    class Recorder(KVWriter):
+        def write(self, key_values, key_excluded, step=0):
+            logged.append(dict(key_values))
+
+    for weight in (0.0, 10.0):
+        model = ValueDICE("MlpPolicy", "Pendulum-v1", expert_data=pendulum_data, seed=0, batch_size=64,
+                          policy_kwargs=dict(net_arch=[64, 64]), nu_arch=[64, 64], gradient_penalty=weight)
+        model.set_logger(Logger(None, [Recorder()]))
+        model.learn(600, log_interval=300)
+        transitions, absorbing, _ = model.absorbing_transitions()
+        x = model._nu_inputs(transitions.observations, absorbing, model._action_features(transitions.actions))
+        x = x.detach().requires_grad_(True)
+        (grad_x,) = th.autograd.grad(model._nu(x).sum(), x)
+        distance_from_one[weight] = float((grad_x.norm(dim=1) - 1.0).abs().mean())
+    assert distance_from_one[10.0] < 0.3 < 2.0 < distance_from_one[0.0], distance_from_one
+    assert "train/gradient_penalty" not in logged[0]
+    assert np.isfinite(logged[-1]["train/gradient_penalty"])
+
+
 def test_valuedice_absorbing_states_and_orthogonal_regulariser():
     """A terminated episode leads to the absorbing state, which leads to itself with the zero action; a time-limit
     end bootstraps; the orthogonal regulariser is 0 for orthogonal weights and positive otherwise."""

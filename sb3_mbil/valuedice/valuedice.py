@@ -47,8 +47,10 @@ class ValueDICE(OfflineAlgorithm):
     termination (not by the time limit) leads to the absorbing state, which leads to itself with a zero
     action; time-limit ends bootstrap as usual. pi is never asked to act in the absorbing state (its
     action there is the zero action). The gradient penalty of the paper (on interpolates of expert and
-    replay samples) has no replay samples to work with offline and is left out, as DeepMind's Acme does
-    offline. Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings),
+    replay samples) has no replay samples to work with offline; by default it is left out, as DeepMind's Acme
+    does offline. With ``gradient_penalty`` > 0 it interpolates pairs of expert inputs of the minibatch instead
+    (at (s, a) and at (s', a' ~ pi), where the reference pairs them with replay inputs), adding
+    ``gradient_penalty * E[(||grad_x nu(x)|| - 1)^2]`` to nu's loss (the reference's weight is 10). Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings),
     orthogonal initialisation; tanh-Gaussian actor (its mean squashed into the action bounds: ``predict``
     returns the squashed mean), log-std in [-5, 2]; Adam 1e-3 (nu) and 1e-5 (actor), batch 256, gamma 0.99,
     orthogonal regulariser 1e-4; states standardised with the expert's statistics.
@@ -62,6 +64,7 @@ class ValueDICE(OfflineAlgorithm):
     :param nu_learning_rate: Adam learning rate of nu
     :param nu_arch: hidden sizes of nu
     :param orthogonal_weight: weight of the actor's orthogonal regulariser
+    :param gradient_penalty: weight of nu's gradient penalty on interpolates of expert inputs (0: none)
     :param gumbel_temperature: (Discrete) temperature of the Gumbel-softmax samples
     :param weight_decay: Adam weight decay of the actor
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
@@ -87,6 +90,7 @@ class ValueDICE(OfflineAlgorithm):
         nu_learning_rate: float = 1e-3,
         nu_arch: list[int] | tuple[int, ...] = (256, 256),
         orthogonal_weight: float = 1e-4,
+        gradient_penalty: float = 0.0,
         gumbel_temperature: float = 1.0,
         weight_decay: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
@@ -105,6 +109,7 @@ class ValueDICE(OfflineAlgorithm):
         self.nu_learning_rate = nu_learning_rate
         self.nu_arch = nu_arch
         self.orthogonal_weight = orthogonal_weight
+        self.gradient_penalty = gradient_penalty
         self.gumbel_temperature = gumbel_temperature
         if _init_setup_model:
             self._setup_model()
@@ -115,6 +120,7 @@ class ValueDICE(OfflineAlgorithm):
         self.nu_learning_rate = check_real("nu_learning_rate", self.nu_learning_rate, low=0.0, low_open=True)
         self.nu_arch = check_sizes("nu_arch", self.nu_arch)
         self.orthogonal_weight = check_real("orthogonal_weight", self.orthogonal_weight, low=0.0)
+        self.gradient_penalty = check_real("gradient_penalty", self.gradient_penalty, low=0.0)
         self.gumbel_temperature = check_real("gumbel_temperature", self.gumbel_temperature, low=0.0, low_open=True)
 
     @property
@@ -177,9 +183,14 @@ class ValueDICE(OfflineAlgorithm):
         raw, log_std = self.policy.raw_heads(obs)
         return self.policy.squash(raw + th.randn_like(raw) * log_std.exp())
 
-    def _nu(self, obs: th.Tensor, absorbing: th.Tensor, action_features: th.Tensor) -> th.Tensor:
+    def _nu_inputs(self, obs: th.Tensor, absorbing: th.Tensor, action_features: th.Tensor) -> th.Tensor:
+        """nu's input: the standardised state (zeros in the absorbing state), the absorbing indicator, the action."""
         features = self.policy.features(obs) * (1.0 - absorbing).unsqueeze(-1)
-        return self.nu(th.cat([features, absorbing.unsqueeze(-1)], dim=1), action_features)[0].squeeze(-1)
+        return th.cat([features, absorbing.unsqueeze(-1), action_features], dim=1)
+
+    def _nu(self, inputs: th.Tensor) -> th.Tensor:
+        n_state = inputs.shape[1] - self._action_dim
+        return self.nu(inputs[:, :n_state], inputs[:, n_state:])[0].squeeze(-1)
 
     def _train_step(self) -> None:
         transitions, absorbing, next_absorbing = self.absorbing_transitions()
@@ -196,9 +207,11 @@ class ValueDICE(OfflineAlgorithm):
 
         # The ValueDICE objective J(pi, nu).
         # the absorbing state's action is the zero vector (for Discrete too, not the one-hot of action 0)
-        nu_expert = self._nu(s, absorbing_i, self._action_features(a) * (1.0 - absorbing_i).unsqueeze(-1))
-        nu_next = self._nu(s_next, next_absorbing_i, a_next)
-        nu_initial = self._nu(s0, th.zeros(len(s0), device=self.device), a0)
+        expert_inputs = self._nu_inputs(s, absorbing_i, self._action_features(a) * (1.0 - absorbing_i).unsqueeze(-1))
+        next_inputs = self._nu_inputs(s_next, next_absorbing_i, a_next)
+        nu_expert = self._nu(expert_inputs)
+        nu_next = self._nu(next_inputs)
+        nu_initial = self._nu(self._nu_inputs(s0, th.zeros(len(s0), device=self.device), a0))
         residual = nu_expert - self.gamma * nu_next
         nonlinear = th.logsumexp(residual, dim=0) - np.log(len(residual))
         linear = (1.0 - self.gamma) * nu_initial.mean()
@@ -207,10 +220,21 @@ class ValueDICE(OfflineAlgorithm):
         # The actor's orthogonal regulariser.
         orthogonal = orthogonal_regulariser(self.policy)
 
+        # nu's gradient penalty (optional): E[(||grad_x nu(x)|| - 1)^2] at x between two expert inputs of the
+        # batch, at (s, a) and at (s', a' ~ pi) (the reference interpolates expert and replay inputs).
+        penalty = th.zeros((), device=self.device)
+        if self.gradient_penalty > 0:
+            inputs = th.stack([expert_inputs, next_inputs]).detach()
+            pairs_with = th.randperm(inputs.shape[1], device=self.device)
+            mix = th.rand(1, inputs.shape[1], 1, device=self.device)
+            between = (mix * inputs + (1.0 - mix) * inputs[:, pairs_with]).flatten(0, 1).requires_grad_(True)
+            (grad_x,) = th.autograd.grad(self._nu(between).sum(), between, create_graph=True)
+            penalty = (grad_x.norm(dim=1) - 1.0).pow(2).mean()
+
         # nu descends J; pi ascends J - orthogonal_weight * R(pi).
         nu_params = list(self.nu.parameters())
         pi_params = [p for p in self.policy.parameters() if p.requires_grad]
-        nu_grads = th.autograd.grad(objective, nu_params, retain_graph=True)
+        nu_grads = th.autograd.grad(objective + self.gradient_penalty * penalty, nu_params, retain_graph=True)
         pi_grads = th.autograd.grad(-objective + self.orthogonal_weight * orthogonal, pi_params, allow_unused=True)
         for p, g in zip(nu_params, nu_grads):
             p.grad = g
@@ -222,3 +246,5 @@ class ValueDICE(OfflineAlgorithm):
         self._record("train/nu_expert", nu_expert.detach().mean())
         self._record("train/nu_initial", nu_initial.detach().mean())
         self._record("train/orthogonal", orthogonal)
+        if self.gradient_penalty > 0:
+            self._record("train/gradient_penalty", penalty)
