@@ -11,3 +11,6 @@ python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 20000 --
 # 20 000-update look above cannot tell a slow actor (learning rate 1e-5) from a broken one.
 python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 100000 --eval-every 10000 --episodes 10 --local \
   --csv results/tuning/valuedice_hopper_1e5.csv --variants '{"valuedice": ["valuedice", {}]}'
+# ValueDICE's gradient penalty (the reference's weight 10), on interpolates of expert inputs: does it steady nu offline?
+python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 100000 --eval-every 10000 --episodes 10 --local \
+  --csv results/tuning/valuedice_hopper_1e5.csv --variants '{"valuedice_gp10": ["valuedice", {"gradient_penalty": 10.0}]}'
