@@ -14,6 +14,9 @@ COMMON="--seeds 100-102 --updates 50000 --eval-every 5000 --episodes 10 --csv $C
 TANH='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true, "bounded_mean": true}'
 # the learning rate decayed linearly to 0 over the run (rl_zoo3's "lin_1e-3"): is the late-training noise the step size?
 LIN='"learning_rate": "lin_1e-3"'
+# a variant inherits the zoo's settings for what it leaves out, and the zoo's MuJoCo BC entry decays its rate
+# (lin_1e-3) since the bounded-mean decision: a constant-rate variant says so
+CONST='"learning_rate": 0.001'
 python scripts/run_curves.py --envs Hopper-v4 HalfCheetah-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}]}"
 # two more tuning seeds for the decision between the zoo's BC and the bounded mean with a decaying learning rate
@@ -26,20 +29,20 @@ python scripts/run_curves.py --envs HalfCheetah-v4 ${COMMON/100-102/100-104} --v
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
   \"mbil_tanh_lin\": [\"mbil\", {$LIN, $TANH}], \"mbil_c_tanh_lin\": [\"mbil_c\", {$LIN, $TANH}]}"
 python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
-  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
-  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"
+  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $CONST, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}]}"
 python scripts/run_curves.py --envs HalfCheetah-v4 $COMMON --variants "{
-  \"bc\": [\"bc\", {}], \"bc_tanh\": [\"bc\", {$TANH}],
-  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $TANH}],
-  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}]}"
+  \"bc\": [\"bc\", {}], \"bc_tanh\": [\"bc\", {$CONST, $TANH}],
+  \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $CONST, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}]}"
 # HalfCheetah-v4 is still at 0.70 with the zoo's backbone; the NLL with weight decay 1e-3 (Li et al.'s BC) scored 0.88
 # on seed 100: five tuning seeds, with the constant and the decaying learning rate
 python scripts/run_curves.py --envs HalfCheetah-v4 ${COMMON/100-102/100-104} --variants "{
-  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}],
   \"bc_tanh_nll_wd1e-3_lin\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $LIN, $TANH}]}"
 # Walker2d-v4 on its regenerated pool: BC at 0.21 of the expert with the zoo's backbone (Figure 4, seeds 0-2); Li et
 # al.'s BC (the NLL with weight decay 1e-3) on three tuning seeds, against the zoo's backbone on the same draws
 python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}],
-  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $TANH}],
+  \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}],
   \"bc_tanh_nll_wd1e-3_lin\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $LIN, $TANH}]}"
