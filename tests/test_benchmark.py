@@ -195,6 +195,30 @@ def test_learning_curves_resume(tmp_path):
     assert summary[("bc", "CartPole-v1", 40)][2] == 1
 
 
+def test_learning_curves_refuse_one_name_for_two_settings(tmp_path):
+    """A variant inherits the zoo's settings for what it leaves out: two variants that resolve to the same run, or a
+    variant whose rows in the CSV ran with other settings, are refused before anything trains."""
+    from sb3_mbil.benchmark.curves import run_curves
+    from sb3_mbil.benchmark.grid import tuned_settings
+
+    out = tmp_path / "curves.csv"
+    zoo_rate = tuned_settings("bc", "Hopper-v4")["learning_rate"]
+    same = {"bc_zoo": ("bc", {}), "bc_zoo_rate": ("bc", {"learning_rate": zoo_rate})}
+    with pytest.raises(ValueError, match="'bc_zoo' and 'bc_zoo_rate'"):
+        run_curves(same, ["Hopper-v4"], [0], str(out), n_updates=20, eval_every=10, n_episodes=1, use_ray=False)
+    assert not out.exists()
+
+    variants = {"bc": ("bc", {"batch_size": 8})}
+    assert run_curves(variants, ["CartPole-v1"], [0], str(out), n_updates=20, eval_every=10, n_episodes=1,
+                      use_ray=False) == 1
+    changed = {"bc": ("bc", {"batch_size": 16})}
+    with pytest.raises(ValueError, match="expected 'bc' on CartPole-v1 to run with the settings of its rows"):
+        run_curves(changed, ["CartPole-v1"], [1], str(out), n_updates=20, eval_every=10, n_episodes=1, use_ray=False)
+    assert len(rows_of(out)) == 2  # nothing appended
+    assert run_curves(variants, ["CartPole-v1"], [1], str(out), n_updates=20, eval_every=10, n_episodes=1,
+                      use_ray=False) == 1
+
+
 def test_curve_table_reports_final_return_and_late_drop():
     from sb3_mbil.benchmark.curves import curve_table
 

@@ -12,6 +12,7 @@ import itertools
 import logging
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_mbil import ALGORITHMS
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
-from sb3_mbil.benchmark.results import append_rows, finished_keys
+from sb3_mbil.benchmark.results import append_rows, finished_keys, read_result_rows
 
 CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit",
                  "heldout_bc_loss"]
@@ -92,6 +93,52 @@ def drawn_demonstrations(env: str, seed: int, n_trajectories: int = 1, pool: str
     return load_pool_version(name, pool_version(name, commit)).sample(n_trajectories, seed=seed)
 
 
+def _resolved_settings(algo: str, env: str, variant_settings: dict[str, Any],
+                       extra_settings: dict[str, Any] | None = None) -> dict[str, Any]:
+    """A variant's constructor settings on ``env``: the zoo's entry, overridden by what the variant sets."""
+    settings = tuned_settings(algo, env, {**variant_settings, **(extra_settings or {})})
+    settings.pop("n_timesteps", None)
+    return settings
+
+
+def _settings_column(algo: str, settings: dict[str, Any], pool: str | None, holdout_fraction: float | None) -> str:
+    """The ``settings`` column of a row: every setting the run used, sorted."""
+    recorded = {"algo": algo, **settings, **({"expert_pool": pool} if pool else {}),
+                **({"holdout_fraction": holdout_fraction} if holdout_fraction else {})}
+    return repr(sorted(recorded.items()))
+
+
+def check_variant_settings(variants: dict[str, tuple[str, dict[str, Any]]], envs, csv_path: str,
+                           pool: str | None = None, extra_settings: dict[str, Any] | None = None,
+                           holdout_fraction: float | None = None) -> None:
+    """Refuse runs whose variant names would mislead, with a ``ValueError`` naming them.
+
+    A variant inherits the zoo's settings for whatever it leaves out, so two variants can resolve to the same run
+    (a "constant learning rate" variant that does not set its rate, once the zoo's entry decays it), and a variant's
+    earlier rows in ``csv_path`` can have been run with other settings (the zoo's entry changed since). Either would
+    put one label on two different things.
+    """
+    earlier: dict[tuple[str, str], set[str]] = {}
+    if Path(csv_path).is_file():
+        for row in read_result_rows(csv_path):
+            earlier.setdefault((row["algo"], row["env"]), set()).add(row["settings"])
+    for env in envs:
+        seen: dict[str, str] = {}
+        for name, (algo, variant_settings) in variants.items():
+            column = _settings_column(algo, _resolved_settings(algo, env, variant_settings, extra_settings), pool,
+                                      holdout_fraction)
+            if column in seen:
+                raise ValueError(f"variants: expected different settings for each variant on {env}, found "
+                                 f"{seen[column]!r} and {name!r} both {column} (a variant inherits the zoo's "
+                                 "settings for what it leaves out: set what distinguishes them)")
+            seen[column] = name
+            other = sorted(earlier.get((name, env), set()) - {column})
+            if other:
+                raise ValueError(f"variants: expected {name!r} on {env} to run with the settings of its rows in "
+                                 f"{csv_path}, found {column} now and {other[0]} there (the zoo's entry or the "
+                                 "variant changed): give the new runs another name or another CSV")
+
+
 def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_updates: int, eval_every: int = 500,
               n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None, commit: str | None = None,
               extra_settings: dict[str, Any] | None = None, holdout_fraction: float | None = None) -> list[dict[str, Any]]:
@@ -104,8 +151,7 @@ def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_
 
     th.set_num_threads(1)
     algo, variant_settings = variants[run.variant]
-    settings = tuned_settings(algo, run.env, {**variant_settings, **(extra_settings or {})})
-    settings.pop("n_timesteps", None)
+    settings = _resolved_settings(algo, run.env, variant_settings, extra_settings)
     demos = drawn_demonstrations(run.env, run.seed, n_trajectories, pool)
     model = ALGORITHMS[algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     scorer = _Scorer(run.env, eval_every, n_episodes, seed=1_000_000 + 1000 * run.seed)
@@ -118,10 +164,9 @@ def run_curve(run: CurveRun, variants: dict[str, tuple[str, dict[str, Any]]], n_
     model.learn(n_updates, callback=callbacks)
     heldout = {step: losses["bc_loss"] for step, losses in validator.history} if holdout_fraction else {}
     commit = commit or git_commit()
-    recorded = {"algo": algo, **settings, **({"expert_pool": pool} if pool else {}),
-                **({"holdout_fraction": holdout_fraction} if holdout_fraction else {})}
     base = {"algo": run.variant, "env": run.env, "seed": run.seed, "n_episodes": n_episodes,
-            "n_trajectories": n_trajectories, "settings": repr(sorted(recorded.items())), "commit": commit}
+            "n_trajectories": n_trajectories, "settings": _settings_column(algo, settings, pool, holdout_fraction),
+            "commit": commit}
     return [{**base, "gradient_step": step, "mean_return": ret, "heldout_bc_loss": heldout.get(step, "")}
             for step, ret in scorer.points]
 
@@ -130,7 +175,9 @@ def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv
                eval_every: int = 500, n_episodes: int = 10, n_trajectories: int = 1, pool: str | None = None,
                use_ray: bool = True, address: str | None = None, num_cpus: int | None = None,
                extra_settings: dict[str, Any] | None = None, holdout_fraction: float | None = None) -> int:
-    """All (variant, env, seed) runs not yet in the CSV; on Ray unless ``use_ray`` is False."""
+    """All (variant, env, seed) runs not yet in the CSV; on Ray unless ``use_ray`` is False. Variants that would put
+    one name on two different runs are refused first (:func:`check_variant_settings`)."""
+    check_variant_settings(variants, envs, csv_path, pool, extra_settings, holdout_fraction)
     done = finished_keys(csv_path, CURVE_KEY)
     todo = [CurveRun(v, e, int(s)) for s, e, v in itertools.product(seeds, envs, variants) if CurveRun(v, e, int(s)).key() not in done]
     commit = git_commit()
