@@ -5,8 +5,10 @@
 # and protocol: results/tuning/bounded_mean.csv (bc, bc_tanh; Hopper-v4). Why weight decay hurts MSE and not NLL:
 # python scripts/weight_decay_scale.py (results/tuning/weight_decay_scale.md). Resumable: rerun to finish.
 # The table: python scripts/curve_summary.py results/tuning/bc_backbone.csv results/tuning/bounded_mean.csv --variants bc \
-#   bc_tanh bc_tanh_lin bc_tanh_nll bc_tanh_nll_wd1e-3 --envs Hopper-v4 HalfCheetah-v4 --last 3 --paired-against bc \
-#   --markdown results/tuning/BACKBONE.md --overwrite
+#   bc_tanh bc_tanh_lin bc_tanh_nll bc_tanh_nll_lin bc_tanh_nll_wd1e-3 bc_tanh_nll_wd1e-3_lin --envs Hopper-v4 \
+#   HalfCheetah-v4 --last 3 --paired-against bc --markdown results/tuning/BACKBONE.md --overwrite
+# Walker2d-v4 (its regenerated pool; bounded_mean.csv's Walker2d rows drew from the old one): python scripts/curve_summary.py \
+#   results/tuning/bc_backbone.csv --envs Walker2d-v4 --last 3 --paired-against bc_tanh_lin
 set -euo pipefail
 cd "$(dirname "$0")/.."
 CSV=results/tuning/bc_backbone.csv
