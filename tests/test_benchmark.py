@@ -215,8 +215,11 @@ def test_learning_curves_refuse_one_name_for_two_settings(tmp_path):
     with pytest.raises(ValueError, match="expected 'bc' on CartPole-v1 to run with the settings of its rows"):
         run_curves(changed, ["CartPole-v1"], [1], str(out), n_updates=20, eval_every=10, n_episodes=1, use_ray=False)
     assert len(rows_of(out)) == 2  # nothing appended
+    with open(out, "a") as f:  # a run interrupted mid-write: the check must not trip on its unfinished line
+        f.write("bc,CartPole-v1,1,10,3")
     assert run_curves(variants, ["CartPole-v1"], [1], str(out), n_updates=20, eval_every=10, n_episodes=1,
                       use_ray=False) == 1
+    assert len(rows_of(out)) == 4
 
 
 def test_curve_table_reports_final_return_and_late_drop():

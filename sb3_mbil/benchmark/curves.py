@@ -177,8 +177,8 @@ def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv
                extra_settings: dict[str, Any] | None = None, holdout_fraction: float | None = None) -> int:
     """All (variant, env, seed) runs not yet in the CSV; on Ray unless ``use_ray`` is False. Variants that would put
     one name on two different runs are refused first (:func:`check_variant_settings`)."""
+    done = finished_keys(csv_path, CURVE_KEY)  # first: it drops a line that an interrupted run left unfinished
     check_variant_settings(variants, envs, csv_path, pool, extra_settings, holdout_fraction)
-    done = finished_keys(csv_path, CURVE_KEY)
     todo = [CurveRun(v, e, int(s)) for s, e, v in itertools.product(seeds, envs, variants) if CurveRun(v, e, int(s)).key() not in done]
     commit = git_commit()
     args = (variants, n_updates, eval_every, n_episodes, n_trajectories, pool, commit, extra_settings, holdout_fraction)
