@@ -50,8 +50,9 @@ class ValueDICE(OfflineAlgorithm):
     replay samples) has no replay samples to work with offline; by default it is left out, as DeepMind's Acme
     does offline. With ``gradient_penalty`` > 0 it interpolates pairs of expert inputs of the minibatch instead
     (at (s, a) and at (s', a' ~ pi), where the reference pairs them with replay inputs), adding
-    ``gradient_penalty * E[(||grad_x nu(x)|| - 1)^2]`` to nu's loss (the reference's weight is 10). Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings),
-    orthogonal initialisation; tanh-Gaussian actor (its mean squashed into the action bounds: ``predict``
+    ``gradient_penalty * E[(||grad_x nu(x)|| - 1)^2]`` to nu's loss (the reference's weight is 10).
+    Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings), orthogonal
+    initialisation; tanh-Gaussian actor (its mean squashed into the action bounds: ``predict``
     returns the squashed mean), log-std in [-5, 2]; Adam 1e-3 (nu) and 1e-5 (actor), batch 256, gamma 0.99,
     orthogonal regulariser 1e-4; states standardised with the expert's statistics.
 
