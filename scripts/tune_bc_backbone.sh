@@ -19,11 +19,13 @@ LIN='"learning_rate": "lin_1e-3"'
 # a variant inherits the zoo's settings for what it leaves out, and the zoo's MuJoCo BC entry decays its rate
 # (lin_1e-3) since the bounded-mean decision: a constant-rate variant says so
 CONST='"learning_rate": 0.001'
+# "bc" here is the zoo's backbone before that decision: a linear mean at a constant rate
+LINEAR='"policy_kwargs": {"net_arch": [256, 256], "normalize_observations": true}'
 python scripts/run_curves.py --envs Hopper-v4 HalfCheetah-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}]}"
 # two more tuning seeds for the decision between the zoo's BC and the bounded mean with a decaying learning rate
 # (Hopper's seeds 100-102 of the zoo's BC are in results/tuning/bounded_mean.csv)
-MORE='{"bc": ["bc", {}], "bc_tanh_lin": ["bc", {'"$LIN, $TANH"'}]}'
+MORE='{"bc": ["bc", {'"$CONST, $LINEAR"'}], "bc_tanh_lin": ["bc", {'"$LIN, $TANH"'}]}'
 python scripts/run_curves.py --envs Hopper-v4 ${COMMON/100-102/103-104} --variants "$MORE"
 python scripts/run_curves.py --envs HalfCheetah-v4 ${COMMON/100-102/100-104} --variants "$MORE"
 # the same backbone under MBIL and MBIL-C (references on the same draws: results/tuning/mujoco.csv, mbil_norm;
@@ -34,7 +36,7 @@ python scripts/run_curves.py --envs Hopper-v4 $COMMON --variants "{
   \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $CONST, $TANH}],
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}]}"
 python scripts/run_curves.py --envs HalfCheetah-v4 $COMMON --variants "{
-  \"bc\": [\"bc\", {}], \"bc_tanh\": [\"bc\", {$CONST, $TANH}],
+  \"bc\": [\"bc\", {$CONST, $LINEAR}], \"bc_tanh\": [\"bc\", {$CONST, $TANH}],
   \"bc_tanh_nll\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.0, $CONST, $TANH}],
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}]}"
 # HalfCheetah-v4 is still at 0.70 with the zoo's backbone; the NLL with weight decay 1e-3 (Li et al.'s BC) scored 0.88
