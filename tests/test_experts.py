@@ -275,6 +275,47 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     assert expert.source == "zoo:dqn seed=0"
 
 
+def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path, monkeypatch):
+    """Machines that start with an empty cache: the newest checkpoint, exported without its replay buffer to a folder
+    that can be committed, is where the next machine's training continues (on a fresh buffer, after the zoo's warm-up)."""
+    import json
+
+    from sb3_mbil.experts import export_zoo_checkpoint, import_zoo_checkpoint, train_zoo_expert
+
+    first, second, carried = tmp_path / "first", tmp_path / "second", tmp_path / "carried"
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(first))
+    with pytest.raises(ValueError, match="checkpoint: expected a checkpoint"):
+        export_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400)
+    train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    run1 = first / "zoo" / "dqn-CartPole-v1-seed0-n400" / "dqn" / "CartPole-v1_1"
+    for name in ("CartPole-v1.zip", "rl_model_400_steps.zip", "rl_model_replay_buffer_400_steps.pkl"):
+        (run1 / name).unlink()  # interrupted after its checkpoint at 200 steps
+    (carried / "rl_model_100_steps.zip").parent.mkdir()
+    (carried / "rl_model_100_steps.zip").write_bytes(b"older")  # an older carried checkpoint is replaced
+    assert export_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400) == carried / "rl_model_200_steps.zip"
+    assert sorted(p.name for p in carried.iterdir()) == ["rl_model_200_steps.zip"]  # no replay buffer
+
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(second))
+    assert import_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400)
+    expert = train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    folder = second / "zoo" / "dqn-CartPole-v1-seed0-n400"
+    progress = json.loads((folder / "progress.json").read_text())
+    assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200}  # 200 steps left, not 400
+    log = folder.with_suffix(".log").read_text()
+    assert "Loading pretrained agent" in log and "Loading replay buffer" not in log
+    assert DQN.load(folder / "dqn" / "CartPole-v1_2" / "CartPole-v1.zip").learning_starts > 0  # the zoo's warm-up
+    assert expert.source == "zoo:dqn seed=0"
+    # a cache at least as far (here: finished) is left alone; so is an empty carried folder
+    assert not import_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400)
+    assert not import_zoo_checkpoint("CartPole-v1", "dqn", tmp_path / "empty", n_timesteps=400)
+    # the command line (the default run folder: the zoo's own budget)
+    out = subprocess.run([sys.executable, "scripts/zoo_checkpoint.py", "import", "--env", "CartPole-v1", "--algo",
+                          "dqn", "--dir", str(carried)], capture_output=True, text=True,
+                         env={**os.environ, "SB3_MBIL_CACHE": str(tmp_path / "third")})
+    assert out.returncode == 0 and "continues from" in out.stdout, out.stderr
+    assert (tmp_path / "third" / "zoo" / "dqn-CartPole-v1-seed0" / "dqn" / "CartPole-v1_1" / "rl_model_200_steps.zip").is_file()
+
+
 def test_resumable_checkpoints_are_whole_and_pruned(tmp_path):
     from sb3_mbil.common.callbacks import ResumableCheckpoint
 

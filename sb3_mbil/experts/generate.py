@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -35,6 +36,7 @@ from stable_baselines3.common.utils import check_for_correct_spaces
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
+from sb3_mbil.common.files import atomic_write
 
 logger = logging.getLogger("sb3_mbil.experts")
 
@@ -240,8 +242,6 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         ]
         resume = _latest_checkpoint(runs_dir, env_id) if save_freq else None
         if resume is None and folder.exists():  # interrupted without a checkpoint: start again from scratch
-            import shutil
-
             shutil.rmtree(folder)
         folder.mkdir(parents=True, exist_ok=True)
         progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
@@ -269,9 +269,13 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
             callbacks.append({"sb3_mbil.common.callbacks.StopTrainingOnReturn": stop})
         hyperparams = [f"callback:{callbacks!r}"] if callbacks else []
         if resume is not None and _off_policy(algo):
-            # rl_zoo3's -i restarts the step count, so the zoo's learning_starts would spend the
-            # first steps of every continuation on random actions without gradient updates
-            hyperparams.append("learning_starts:0")
+            if (resume[0].parent / "replay_buffer.pkl").exists():
+                # rl_zoo3's -i restarts the step count, so the zoo's learning_starts would spend the
+                # first steps of every continuation on random actions without gradient updates
+                hyperparams.append("learning_starts:0")
+            else:  # a carried checkpoint (import_zoo_checkpoint): the zoo's warm-up refills a fresh buffer first
+                logger.warning("%s has no replay buffer: training continues on a fresh one, after the zoo's "
+                               "learning_starts steps of random actions", resume[0])
         if hyperparams:
             cmd += ["--hyperparams", *hyperparams]
         progress["steps_before"][next_run] = done
@@ -377,6 +381,72 @@ def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
             steps, path = max(ckpts)
             return path, steps
     return None
+
+
+def _checkpoint_steps(path: Path) -> int | None:
+    middle = path.stem[len("rl_model_"):-len("_steps")] if path.stem.startswith("rl_model_") else ""
+    return int(middle) if middle.isdigit() and path.stem.endswith("_steps") else None
+
+
+def export_zoo_checkpoint(env_id: str, algo: str, dest: str | os.PathLike, seed: int = 0,
+                          n_timesteps: int | None = None) -> Path:
+    """Copy the newest checkpoint of a cached zoo run to ``dest`` as ``rl_model_<steps done>_steps.zip``, with its
+    VecNormalize statistics (``rl_model_vecnormalize_<steps>_steps.pkl``) when it has them, and remove older ones
+    there: a file small enough to commit (Ant-v4's SAC: 3.4 MB; its replay buffer, about 500 MB, is left out) from
+    which :func:`import_zoo_checkpoint` continues the training on a machine whose cache is empty."""
+    folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
+    resume = _latest_checkpoint(folder / algo, env_id)
+    if resume is None:
+        raise ValueError(f"checkpoint: expected a checkpoint of the zoo run in {folder}, found none")
+    ckpt, steps = resume
+    progress_file = folder / "progress.json"
+    progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+    done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    copies = [(ckpt, dest / f"rl_model_{done}_steps.zip")]
+    vecnormalize = ckpt.parent / f"rl_model_vecnormalize_{steps}_steps.pkl"
+    if vecnormalize.is_file():
+        copies.append((vecnormalize, dest / f"rl_model_vecnormalize_{done}_steps.pkl"))
+    for source, target in copies:
+        with atomic_write(target) as tmp:
+            shutil.copyfile(source, tmp)
+    for old in dest.glob("rl_model_*_steps.*"):  # one carried checkpoint per run folder: the newest
+        if old not in {target for _, target in copies}:
+            old.unlink()
+    return copies[0][1]
+
+
+def import_zoo_checkpoint(env_id: str, algo: str, source: str | os.PathLike, seed: int = 0,
+                          n_timesteps: int | None = None) -> bool:
+    """Make the newest checkpoint written by :func:`export_zoo_checkpoint` in ``source`` (a folder) the one the
+    next :func:`train_zoo_expert` continues from, unless the cache already holds a run at least as far (or a finished
+    one). Off-policy training then continues on a fresh replay buffer, after the zoo's ``learning_starts`` steps of
+    random actions. Returns whether it did."""
+    carried = [(s, p) for p in Path(source).glob("rl_model_*_steps.zip") if (s := _checkpoint_steps(p)) is not None]
+    if not carried:
+        return False
+    steps, path = max(carried)
+    folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
+    runs_dir = folder / algo
+    progress_file = folder / "progress.json"
+    progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+    if _zoo_finished(runs_dir, env_id):
+        return False
+    resume = _latest_checkpoint(runs_dir, env_id)
+    if resume is not None and progress["steps_before"].get(resume[0].parent.name, 0) + resume[1] >= steps:
+        return False
+    ids = _run_ids(runs_dir, env_id)
+    run = runs_dir / f"{env_id}_{ids[-1] + 1 if ids else 1}"
+    run.mkdir(parents=True)
+    vecnormalize = path.parent / f"rl_model_vecnormalize_{steps}_steps.pkl"
+    if vecnormalize.is_file():
+        shutil.copyfile(vecnormalize, run / vecnormalize.name)
+    shutil.copyfile(path, run / path.name)  # last: the checkpoint counts only once it is whole
+    progress["steps_before"][run.name] = 0
+    _write_json(progress_file, progress)
+    logger.info("%s: continuing from the carried checkpoint %s (%d steps done)", env_id, path, steps)
+    return True
 
 
 def _prepare_continuation(ckpt: Path, env_id: str) -> None:
