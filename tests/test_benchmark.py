@@ -33,6 +33,14 @@ def test_local_grid_appends_rows_and_resumes(tmp_path):
     rows = rows_of(out)
     assert len(rows) == 2 and list(rows[0]) == RESULT_COLUMNS
     assert rows[1]["n_episodes"] == "3" and rows[1]["gradient_steps"] == "20"
+    # a resumed grid whose settings changed since its rows (another override here; the zoo's entry alike) is refused
+    longer = {**TINY, "bc": {"n_timesteps": 30}}
+    with pytest.raises(ValueError, match="expected 'bc' on CartPole-v1 to run with the settings of its rows"):
+        run_local(make_grid(["bc"], ["CartPole-v1"], [1], [1]), str(out), n_episodes=3, overrides=longer)
+    with pytest.raises(ValueError, match="or the protocol changed"):
+        run_local(make_grid(["bc"], ["CartPole-v1"], [1], [1]), str(out), n_episodes=3, overrides=TINY,
+                  protocol="published")
+    assert len(rows_of(out)) == 2
 
 
 def test_published_protocol_and_second_expert_are_named_in_the_rows(tmp_path):

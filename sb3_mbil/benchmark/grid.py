@@ -94,6 +94,42 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
     return settings
 
 
+def settings_column(algo: str, env: str, overrides: dict[str, dict[str, Any]] | None = None, pool: str | None = None,
+                    protocol: str = "full") -> str:
+    """The ``settings`` column of a grid row: the constructor settings, the gradient steps and the data (pool,
+    protocol and its step rate), sorted."""
+    from sb3_mbil.benchmark.protocol import published_every
+
+    settings = tuned_settings(algo, env, (overrides or {}).get(algo), fallback=pool is not None)
+    steps = int(float(settings.pop("n_timesteps")))
+    data = {"expert_pool": str(pool)} if pool else {}
+    if protocol != "full":
+        data.update(protocol=protocol, every=published_every(algo, env))
+    return repr(sorted({**settings, "n_timesteps": steps, **data}.items()))
+
+
+def check_grid_settings(runs: list[Run], csv_path: str, overrides: dict[str, dict[str, Any]] | None = None,
+                        pool=None, protocol: str = "full") -> None:
+    """Refuse, with a ``ValueError`` naming both, runs whose (algo, env) already has rows in ``csv_path`` run with
+    other settings (the zoo's entry, the overrides or the protocol changed since): a grid resumed across such a change
+    would average two different things under one name. ``pool``: one pool, or one per env."""
+    from sb3_mbil.benchmark.results import read_result_rows
+
+    if not Path(csv_path).is_file():
+        return
+    earlier: dict[tuple[str, str], set[str]] = {}
+    for row in read_result_rows(csv_path):
+        earlier.setdefault((row["algo"], row["env"]), set()).add(row["settings"])
+    for algo, env in dict.fromkeys((r.algo, r.env) for r in runs):
+        env_pool = pool.get(env) if isinstance(pool, dict) else pool
+        column = settings_column(algo, env, overrides, env_pool, protocol)
+        other = sorted(earlier.get((algo, env), set()) - {column})
+        if other:
+            raise ValueError(f"settings: expected {algo!r} on {env} to run with the settings of its rows in {csv_path}, "
+                             f"found {column} now and {other[0]} there (the zoo's entry, the overrides or the protocol "
+                             "changed): write the new runs to another CSV")
+
+
 def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]] | None = None, commit: str | None = None,
             n_eval_envs: int = 20, pool: str | None = None, protocol: str = "full") -> dict[str, Any]:
     """Train and evaluate one (algo, env, N, seed); returns the result row.
@@ -114,9 +150,6 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
     demos = demonstrations_for(run.algo, run.env, run.n_trajectories, run.seed, protocol, pool)
-    data = {"expert_pool": str(pool)} if pool else {}
-    if protocol != "full":
-        data.update(protocol=protocol, every=demos.metadata["subsampled"]["every"])
     t0 = time.perf_counter()
     model = ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
     model.learn(steps)
@@ -140,7 +173,7 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
         "train_seconds": round(train_seconds, 1),
         "flow_fit_seconds": round(fit_seconds, 1),  # MBIL's flows, MBIL-C's P and T
         "gradient_steps": steps,
-        "settings": repr(sorted({**settings, "n_timesteps": steps, **data}.items())),
+        "settings": settings_column(run.algo, run.env, overrides, pool, protocol),
         "commit": commit or git_commit(),
         "protocol": protocol,
         **diagnostics,

@@ -10,7 +10,7 @@ import logging
 import os
 from typing import Any
 
-from sb3_mbil.benchmark.grid import KEY_COLUMNS, RESULT_COLUMNS, Run, git_commit, run_one
+from sb3_mbil.benchmark.grid import KEY_COLUMNS, RESULT_COLUMNS, Run, check_grid_settings, git_commit, run_one
 from sb3_mbil.benchmark.results import append_row, finished_keys
 
 logger = logging.getLogger("sb3_mbil.benchmark")
@@ -30,6 +30,7 @@ def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: 
               pool: str | dict[str, str] | None = None, protocol: str = "full") -> int:
     """Without Ray, one run after the other (for debugging)."""
     todo, commit = pending(runs, csv_path), git_commit()
+    check_grid_settings(todo, csv_path, overrides, pool, protocol)
     for run in todo:
         row = run_one(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol)
         append_row(csv_path, row, RESULT_COLUMNS)
@@ -46,6 +47,7 @@ def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: di
     todo, commit = pending(runs, csv_path), git_commit()
     if not todo:
         return 0
+    check_grid_settings(todo, csv_path, overrides, pool, protocol)
     env_vars = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
     if address:
         ray.init(address=address, runtime_env={"env_vars": env_vars})
