@@ -5,12 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 import torch as th
+from gymnasium import spaces
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.validation import check_real
 
 
 class BC(OfflineAlgorithm):
@@ -19,7 +21,10 @@ class BC(OfflineAlgorithm):
     L_BC is the negative log-likelihood -E log pi(a|s) (Discrete; ``bc_loss="nll"`` also for the
     Gaussian policy on Box actions) or the mean squared error of the mean action (Box, default).
     With MSE and one trajectory, weight decay (about 1e-3) keeps BC from collapsing late in
-    training (Li et al., 2022).
+    training (Li et al., 2022). For Discrete actions, ``logit_penalty`` (lambda) adds d3rlpy's DiscreteBC
+    regulariser, lambda * mean over the minibatch and the actions of logits(s)^2 (d3rlpy's default: 0.5):
+
+        min_theta  L_BC(pi_theta, D) + lambda * E_{s ~ D} mean_a logits_theta(s, a)^2
 
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
@@ -28,6 +33,7 @@ class BC(OfflineAlgorithm):
     :param batch_size: minibatch size
     :param bc_loss: ``"auto"`` (NLL for Discrete, MSE for Box), ``"nll"`` or ``"mse"``
     :param weight_decay: Adam weight decay of the policy
+    :param logit_penalty: (Discrete) weight lambda of the squared logits (0: none)
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
     :param tensorboard_log: tensorboard folder
     :param verbose: verbosity
@@ -45,6 +51,7 @@ class BC(OfflineAlgorithm):
         batch_size: int = 64,
         bc_loss: str = "auto",
         weight_decay: float = 0.0,
+        logit_penalty: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
         tensorboard_log: str | None = None,
         verbose: int = 0,
@@ -58,17 +65,32 @@ class BC(OfflineAlgorithm):
             seed=seed, device=device, _init_setup_model=_init_setup_model,
         )
         self.bc_loss = bc_loss
+        self.logit_penalty = logit_penalty
         if _init_setup_model:
             self._setup_model()
 
     def _check_hyperparameters(self) -> None:
         super()._check_hyperparameters()
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self.logit_penalty = check_real("logit_penalty", self.logit_penalty, low=0.0)
+        if self.logit_penalty > 0 and not isinstance(self.action_space, spaces.Discrete):
+            raise ValueError(f"logit_penalty: expected 0 for {type(self.action_space).__name__} actions (it penalises a "
+                             f"categorical policy's logits), found {self.logit_penalty}")
 
     def _train_step(self) -> None:
         batch = self.sample(self.expert_pairs())
-        loss = bc_loss(self.policy, self.policy.heads(batch.observations), batch.actions, self._bc_kind)
+        heads = self.policy.heads(batch.observations)
+
+        # BC term: L_BC(pi, D).
+        loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)
+        self._record("train/bc_loss", loss)
+
+        # Logit penalty (Discrete): lambda * mean of the squared logits.
+        if self.logit_penalty > 0:
+            penalty = heads[0].pow(2).mean()
+            loss = loss + self.logit_penalty * penalty
+            self._record("train/logit_penalty", penalty)
+
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()
-        self._record("train/bc_loss", loss)
