@@ -26,6 +26,10 @@ class BC(OfflineAlgorithm):
 
         min_theta  L_BC(pi_theta, D) + lambda * E_{s ~ D} mean_a logits_theta(s, a)^2
 
+    ``observation_noise`` (sigma) trains on s + sigma * std(s) * eps, eps ~ N(0, I), with the expert's action kept
+    (std per dimension over the expert states): a smoothness prior that labels states near the expert's with the
+    expert's action.
+
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
     :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`)
@@ -34,6 +38,8 @@ class BC(OfflineAlgorithm):
     :param bc_loss: ``"auto"`` (NLL for Discrete, MSE for Box), ``"nll"`` or ``"mse"``
     :param weight_decay: Adam weight decay of the policy
     :param logit_penalty: (Discrete) weight lambda of the squared logits (0: none)
+    :param observation_noise: sigma, std of the Gaussian noise on each minibatch's expert states in units of the expert
+        states' std per dimension (0: none)
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
     :param tensorboard_log: tensorboard folder
     :param verbose: verbosity
@@ -52,6 +58,7 @@ class BC(OfflineAlgorithm):
         bc_loss: str = "auto",
         weight_decay: float = 0.0,
         logit_penalty: float = 0.0,
+        observation_noise: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
         tensorboard_log: str | None = None,
         verbose: int = 0,
@@ -66,6 +73,7 @@ class BC(OfflineAlgorithm):
         )
         self.bc_loss = bc_loss
         self.logit_penalty = logit_penalty
+        self.observation_noise = observation_noise
         if _init_setup_model:
             self._setup_model()
 
@@ -76,10 +84,24 @@ class BC(OfflineAlgorithm):
         if self.logit_penalty > 0 and not isinstance(self.action_space, spaces.Discrete):
             raise ValueError(f"logit_penalty: expected 0 for {type(self.action_space).__name__} actions (it penalises a "
                              f"categorical policy's logits), found {self.logit_penalty}")
+        self.observation_noise = check_real("observation_noise", self.observation_noise, low=0.0)
+
+    def _on_new_data(self) -> None:
+        super()._on_new_data()
+        self._obs_scale: th.Tensor | None = None  # the expert states' std per dimension (observation_noise)
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_obs_scale"]
 
     def _train_step(self) -> None:
-        batch = self.sample(self.expert_pairs())
-        heads = self.policy.heads(batch.observations)
+        pairs = self.expert_pairs()
+        batch = self.sample(pairs)
+        observations = batch.observations
+        if self.observation_noise > 0:  # s + sigma * std(s) * eps, the expert's action kept
+            if self._obs_scale is None:
+                self._obs_scale = pairs.observations.flatten(1).std(0, unbiased=False).view_as(observations[0])
+            observations = observations + self.observation_noise * self._obs_scale * th.randn_like(observations)
+        heads = self.policy.heads(observations)
 
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)
