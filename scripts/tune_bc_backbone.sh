@@ -50,3 +50,8 @@ python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
   \"bc_tanh_lin\": [\"bc\", {$LIN, $TANH}],
   \"bc_tanh_nll_wd1e-3\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $CONST, $TANH}],
   \"bc_tanh_nll_wd1e-3_lin\": [\"bc\", {\"bc_loss\": \"nll\", \"weight_decay\": 0.001, $LIN, $TANH}]}"
+# Walker2d-v4 stays at 0.2-0.3 with every loss and rate above. Gaussian noise on the expert states with the expert's
+# action kept (BC's observation_noise, in units of the states' std): does a smoothness prior keep the clone on its feet?
+python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
+  \"bc_tanh_lin_obs0.1\": [\"bc\", {\"observation_noise\": 0.1, $LIN, $TANH}],
+  \"bc_tanh_lin_obs0.3\": [\"bc\", {\"observation_noise\": 0.3, $LIN, $TANH}]}"
