@@ -209,19 +209,20 @@ def test_box_bc_losses(data):
         make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss=kind, weight_decay=1e-3).learn(10)
 
 
-def test_bc_logit_penalty_bounds_the_logits_and_is_discrete_only(data):
+@pytest.mark.parametrize("algo", [BC, ALGORITHMS["mbil_c"]], ids=["bc", "mbil_c"])
+def test_logit_penalty_bounds_the_logits_and_is_discrete_only(algo, data):
     """d3rlpy's DiscreteBC regulariser: lambda * mean(logits^2) keeps the logits small where plain BC grows them."""
     obs = th.as_tensor(np.concatenate([o for o, _ in data["CartPole-v1"]]), dtype=th.float32)
     size = {}
     for penalty in (0.0, 0.5):
-        model = make(BC, "CartPole-v1", data["CartPole-v1"], logit_penalty=penalty).learn(2000)
+        model = make(algo, "CartPole-v1", data["CartPole-v1"], logit_penalty=penalty).learn(2000)
         with th.no_grad():
             size[penalty] = float(model.policy.heads(obs)[0].pow(2).mean())
     assert size[0.5] < 0.5 * size[0.0], size
     with pytest.raises(ValueError, match="logit_penalty: expected 0 for Box actions"):
-        make(BC, "Pendulum-v1", data["Pendulum-v1"], logit_penalty=0.5)
+        make(algo, "Pendulum-v1", data["Pendulum-v1"], logit_penalty=0.5)
     with pytest.raises(ValueError, match="logit_penalty"):
-        make(BC, "CartPole-v1", data["CartPole-v1"], logit_penalty=-1.0)
+        make(algo, "CartPole-v1", data["CartPole-v1"], logit_penalty=-1.0)
 
 
 def test_bc_observation_noise_smooths_the_policy_around_the_expert_states(data):

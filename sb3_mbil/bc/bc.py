@@ -5,11 +5,10 @@ from __future__ import annotations
 from typing import Any
 
 import torch as th
-from gymnasium import spaces
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
-from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
+from sb3_mbil.common.losses import bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
 from sb3_mbil.common.validation import check_real
@@ -80,10 +79,7 @@ class BC(OfflineAlgorithm):
     def _check_hyperparameters(self) -> None:
         super()._check_hyperparameters()
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
-        self.logit_penalty = check_real("logit_penalty", self.logit_penalty, low=0.0)
-        if self.logit_penalty > 0 and not isinstance(self.action_space, spaces.Discrete):
-            raise ValueError(f"logit_penalty: expected 0 for {type(self.action_space).__name__} actions (it penalises a "
-                             f"categorical policy's logits), found {self.logit_penalty}")
+        self.logit_penalty = check_logit_penalty(self.logit_penalty, self.action_space)
         self.observation_noise = check_real("observation_noise", self.observation_noise, low=0.0)
 
     def _on_new_data(self) -> None:
@@ -109,7 +105,7 @@ class BC(OfflineAlgorithm):
 
         # Logit penalty (Discrete): lambda * mean of the squared logits.
         if self.logit_penalty > 0:
-            penalty = heads[0].pow(2).mean()
+            penalty = logit_penalty(heads)
             loss = loss + self.logit_penalty * penalty
             self._record("train/logit_penalty", penalty)
 

@@ -1,4 +1,4 @@
-"""The behaviour-cloning loss L_BC(pi, D), shared by BC and MBIL (the beta term)."""
+"""The behaviour-cloning loss L_BC(pi, D), shared by BC and MBIL (the beta term), and the logit penalty of BC and MBIL-C."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import torch as th
 from gymnasium import spaces
 
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.validation import check_real
 
 BC_LOSSES = ("nll", "mse")
 
@@ -33,3 +34,17 @@ def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Ten
     if kind == "nll":
         return -(policy.log_prob_from_heads(heads, actions) if log_prob is None else log_prob).mean()
     return (heads[0] - actions.view_as(heads[0])).pow(2).mean()
+
+
+def check_logit_penalty(value: float, action_space: spaces.Space) -> float:
+    """The weight of :func:`logit_penalty`: a finite number >= 0, and 0 unless the actions are Discrete."""
+    value = check_real("logit_penalty", value, low=0.0)
+    if value > 0 and not isinstance(action_space, spaces.Discrete):
+        raise ValueError(f"logit_penalty: expected 0 for {type(action_space).__name__} actions (it penalises a "
+                         f"categorical policy's logits), found {value}")
+    return value
+
+
+def logit_penalty(heads: Sequence[th.Tensor]) -> th.Tensor:
+    """d3rlpy's DiscreteBC regulariser: the mean over the minibatch and the actions of the squared logits."""
+    return heads[0].pow(2).mean()

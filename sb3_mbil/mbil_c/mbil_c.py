@@ -47,7 +47,7 @@ from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.flows import fit_conditional_density
-from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
+from sb3_mbil.common.losses import bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
 from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
@@ -88,7 +88,8 @@ def balance_kl(policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequ
 class MBILC(OfflineAlgorithm):
     """MBIL-C: Markov balance over every next action, at the data's and the dynamics model's next states.
 
-    Objective (module docstring): ``beta * L_BC + alpha * D at data s' + alpha_T * D at s~' ~ T``.
+    Objective (module docstring): ``beta * L_BC + alpha * D at data s' + alpha_T * D at s~' ~ T``, plus BC's
+    optional logit penalty for Discrete actions (``logit_penalty``).
     With ``alpha = alpha_T = 0`` it is BC. Deviations from the paper's MBIL: a divergence over the whole conditional
     instead of the squared log residual at the observed a'; P is written as T(s' | s, a) P(a' | s, a, s')
     (as in our MBIL), both models are MLPs (categorical / diagonal Gaussian), not flows; the balance term
@@ -107,6 +108,8 @@ class MBILC(OfflineAlgorithm):
     :param divergence: the balance divergence D(P || pi): ``"auto"`` (KL for Discrete, W2 for Box), ``"kl"`` or
         ``"w2"`` (squared 2-Wasserstein distance of the Gaussians; Box only)
     :param weight_decay: policy Adam weight decay
+    :param logit_penalty: (Discrete) weight lambda of BC's logit penalty, lambda * mean of the squared logits at the
+        expert states (d3rlpy's DiscreteBC regulariser; 0: none), added to the objective
     :param n_model_states: draws of T per expert tuple (kept for the whole run)
     :param model_state_scale: kappa, the factor on T's standard deviation when drawing model states
     :param anchor_to_data: ``"auto"`` (True for Box, False for Discrete) or a bool. (Box) P's targets anchored on
@@ -154,6 +157,7 @@ class MBILC(OfflineAlgorithm):
         bc_loss: str = "auto",
         divergence: str = "auto",
         weight_decay: float = 0.0,
+        logit_penalty: float = 0.0,
         n_model_states: int = 4,
         model_state_scale: float = 1.0,
         anchor_to_data: bool | str = "auto",
@@ -187,6 +191,7 @@ class MBILC(OfflineAlgorithm):
         self.beta = beta
         self.bc_loss = bc_loss
         self.divergence = divergence
+        self.logit_penalty = logit_penalty
         self.n_model_states = n_model_states
         self.model_state_scale = model_state_scale
         self.anchor_to_data = anchor_to_data
@@ -217,6 +222,7 @@ class MBILC(OfflineAlgorithm):
             raise ValueError("alpha, alpha_model, beta: expected at least one of them > 0, found all 0")
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
         self.divergence = check_choice("divergence", self.divergence, DIVERGENCES)
+        self.logit_penalty = check_logit_penalty(self.logit_penalty, self.action_space)
         discrete = isinstance(self.action_space, spaces.Discrete)
         if self.divergence == "w2" and discrete:
             raise ValueError("divergence: expected 'kl' or 'auto' for Discrete actions, found 'w2'")
@@ -451,6 +457,8 @@ class MBILC(OfflineAlgorithm):
         # the cached soft labels (the same gradient, one fused op); the two terms are logged every 10th update.
         if "soft_labels" in cache and self._divergence == "kl" and not use_model and not use_orphans:
             loss = th.nn.functional.cross_entropy(heads_s[0], cache["soft_labels"][i])
+            if self.logit_penalty > 0:  # Logit penalty: lambda * mean of the squared logits at the expert states.
+                loss = loss + self.logit_penalty * logit_penalty(heads_s)
             self.policy.optimizer.zero_grad(set_to_none=True)
             loss.backward()
             self.policy.optimizer.step()
@@ -471,6 +479,12 @@ class MBILC(OfflineAlgorithm):
             bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind, log_prob=log_prob)
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
+
+        # Logit penalty (Discrete): lambda * mean of the squared logits at the expert states.
+        if self.logit_penalty > 0:
+            penalty = logit_penalty(heads_s)
+            loss = loss + self.logit_penalty * penalty
+            self._record("train/logit_penalty", penalty)
 
         # Balance at the data: D(P(. | s, a, s') || pi(. | s')), over the pairs that have a predecessor (weight 0
         # at a trajectory's first step; the weights average 1, so the term is the mean over those pairs).
