@@ -462,3 +462,29 @@ def test_rows_are_measured_against_the_pool_version_of_their_commit(monkeypatch)
     assert pool_experts([{**row, "commit": "unknown"}])["Walker2d-v4"] == pytest.approx(now)
     with pytest.raises(ValueError, match="one version of the pool per env"):
         pool_experts([{**row, "commit": "e3d427e"}, {**row, "commit": "unknown"}])
+
+
+def test_fall_report_finds_where_a_clone_leaves_the_expert_states(tmp_path):
+    """The distance to the nearest training state is in units of the states' std; a clone has left at the first step
+    from which it stays above the threshold for `patience` steps; the script appends one row per episode and resumes."""
+    import numpy as np
+
+    from sb3_mbil.benchmark.falls import left_at, nearest_distance
+
+    reference = np.array([[0.0, 0.0], [2.0, 0.0]])
+    d = nearest_distance(np.array([[0.0, 0.0], [2.0, 2.0], [1.0, 0.0]]), reference, scale=np.array([1.0, 2.0]))
+    np.testing.assert_allclose(d, [0.0, np.sqrt(0.5), np.sqrt(0.5)])  # (0, 1) and (1, 0) in std units, RMS over 2
+    assert left_at(np.array([0, 2, 0, 2, 2, 2, 0]), threshold=1.0, patience=3) == 3
+    assert left_at(np.array([0, 2, 2, 0]), threshold=1.0, patience=3) is None
+
+    out = tmp_path / "falls.csv"
+    cmd = [sys.executable, "scripts/fall_report.py", "--envs", "Hopper-v4", "--seeds", "100", "--updates", "20",
+           "--episodes", "2", "--csv", str(out)]
+    first = subprocess.run(cmd, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    rows = rows_of(out)
+    assert len(rows) == 2 and {r["episode"] for r in rows} == {"0", "1"}
+    assert all(int(r["length"]) >= 1 and r["fell"] in ("True", "False") for r in rows)
+    assert "| Hopper-v4 | bc | 100 | 2 |" in first.stdout
+    again = subprocess.run(cmd, capture_output=True, text=True)  # finished: nothing reruns
+    assert again.returncode == 0 and len(rows_of(out)) == 2
