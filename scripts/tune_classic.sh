@@ -17,3 +17,10 @@ LL="--envs LunarLander-v3 --n-trajectories 1 --seeds 103-114 --episodes 100 --nu
 python scripts/benchmark.py --algos bc mbil $LL --csv results/tuning/default.csv --overrides '{"bc": {"weight_decay": 0.0}}'
 python scripts/benchmark.py --algos bc $LL --csv results/tuning/bc_wd1e-3.csv --overrides '{"bc": {"weight_decay": 0.001}}'
 python scripts/benchmark.py --algos mbil $LL --csv results/tuning/mbil_wd1e-3.csv --overrides '{"mbil": {"weight_decay": 0.001}}'
+
+# Stage 3: d3rlpy's DiscreteBC regulariser (logit_penalty, lambda * mean of the squared logits; its default 0.5): a difference
+# between d3rlpy's BC and ours, on the cell of BENCHMARKS.md's peers table where d3rlpy's is above (LunarLander-v3, one trajectory).
+python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tuning/bc_logit0.5.csv --overrides '{"bc": {"logit_penalty": 0.5}}'
+python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tuning/bc_logit0.5_wd0.csv --overrides '{"bc": {"logit_penalty": 0.5, "weight_decay": 0.0}}'
+python scripts/benchmark.py --algos mbil_c ${LL/103-114/100-114} --csv results/tuning/mbil_c_logit0.5.csv --overrides '{"mbil_c": {"logit_penalty": 0.5, "weight_decay": 0.001}}'
+python scripts/benchmark.py --algos bc $COMMON --csv results/tuning/bc_logit0.5.csv --overrides '{"bc": {"logit_penalty": 0.5}}'
