@@ -143,12 +143,14 @@ def test_anchored_targets_sit_on_the_observed_actions(pendulum_data):
         MBILC("MlpPolicy", "CartPole-v1", divergence="w2")
 
 
-def test_corrective_labels_lead_back_to_the_expert_next_state():
+@pytest.mark.parametrize("residual", [False, True], ids=["direct", "residual"])
+def test_corrective_labels_lead_back_to_the_expert_next_state(residual):
     """CCIL-style labels on the linear-Gaussian MDP: the TRUE dynamics take (s~, a~) close to the expert's s', and
-    a~ differs from the expert's a (a label the data does not have)."""
+    a~ differs from the expert's a (a label the data does not have). With ``residual_transition`` T models s' - s and
+    its mean is s plus the modelled change."""
     mdp = LinearGaussianMDP()
     model = MBILC("MlpPolicy", mdp.make_env(), expert_data=mdp.trajectories(30, 100, seed=0), alpha_model=1.0,
-                  model_labels="corrective", corrective_action_noise=1.0, seed=0)
+                  model_labels="corrective", corrective_action_noise=1.0, residual_transition=residual, seed=0)
     model.learn(0)
     cache, (s, a, s_next, _) = model.balance_targets(), model.expert_tuples()
     report = model.model_report["corrective_labels"]
@@ -160,6 +162,14 @@ def test_corrective_labels_lead_back_to_the_expert_next_state():
     rms = np.sqrt(((true_next - expert_next) ** 2).mean(1)) / s.numpy().std(0).mean()
     assert np.median(rms) < 0.1
     assert np.abs(actions - a.numpy()[tuples]).mean() > 0.1  # new actions, not the data's
+    if residual:  # T's mean is s + the network's change: a network that outputs zero change predicts s' = s
+        bm = model.balance_model
+        for p in bm.transition.net.parameters():
+            p.data.zero_()
+        mean, _ = bm.transition_mean_std(s, a)
+        th.testing.assert_close(mean, s + bm.transition.x_norm.mean)
+        x_t, _ = bm.transition_inputs(s, a, s_next)
+        th.testing.assert_close(x_t, s_next - s)
 
 
 

@@ -125,6 +125,7 @@ class MBILC(OfflineAlgorithm):
     :param corrective_tolerance: largest RMS gap |mean_T(s~, a~) - s'| / std(s) of a kept corrective label
     :param corrective_iterations: fixed-point iterations s~ <- s~ + s' - mean_T(s~, a~), from s~ = s
     :param model_hidden: hidden sizes of P's and T's MLPs
+    :param residual_transition: T models s' - s (its mean added to s, as model-based RL and CCIL do) instead of s'
     :param model_learning_rate: Adam learning rate of P and T
     :param model_batch_size: their minibatch size
     :param model_max_steps: maximum gradient steps of one fit
@@ -166,6 +167,7 @@ class MBILC(OfflineAlgorithm):
         corrective_tolerance: float = 0.05,
         corrective_iterations: int = 10,
         model_hidden: Sequence[int] = (64, 64),
+        residual_transition: bool = False,
         model_learning_rate: float = 1e-3,
         model_batch_size: int = 256,
         model_max_steps: int = 2000,
@@ -200,6 +202,7 @@ class MBILC(OfflineAlgorithm):
         self.corrective_tolerance = corrective_tolerance
         self.corrective_iterations = corrective_iterations
         self.model_hidden = model_hidden
+        self.residual_transition = residual_transition
         self.model_learning_rate = model_learning_rate
         self.model_batch_size = model_batch_size
         self.model_max_steps = model_max_steps
@@ -236,6 +239,7 @@ class MBILC(OfflineAlgorithm):
         if self.anchor_to_data and discrete:
             raise ValueError("anchor_to_data: expected False for Discrete actions (it moves a Gaussian mean), found True")
         self.model_hidden = check_sizes("model_hidden", self.model_hidden)
+        self.residual_transition = check_bool("residual_transition", self.residual_transition)
         self.model_labels = check_choice("model_labels", self.model_labels, ("balance", "corrective"))
         self.corrective_action_noise = check_real("corrective_action_noise", self.corrective_action_noise, low=0.0)
         self.corrective_tolerance = check_real("corrective_tolerance", self.corrective_tolerance, low=0.0, low_open=True)
@@ -250,7 +254,8 @@ class MBILC(OfflineAlgorithm):
         super()._setup_model()
         with th.random.fork_rng(devices=[]):  # P and T are refitted from their own seeds: keep the policy's stream
             self.balance_model = BalanceModel(
-                int(np.prod(self.observation_space.shape)), self.action_space, hidden=self.model_hidden
+                int(np.prod(self.observation_space.shape)), self.action_space, hidden=self.model_hidden,
+                residual_transition=self.residual_transition,
             ).to(self.device)
         self.balance_model.eval()
 
@@ -402,7 +407,7 @@ class MBILC(OfflineAlgorithm):
             actions = (a.repeat_interleave(k, 0) + self.corrective_action_noise * a_std * noise).clamp(low, high)
         target = s_next.repeat_interleave(k, 0)
         x = s.repeat_interleave(k, 0).clone()
-        step = lambda x: model.transition.mean_std(th.cat([x, model.encode_action(actions)], dim=1))[0]  # noqa: E731
+        step = lambda x: model.transition_mean_std(x, actions)[0]  # noqa: E731
         for _ in range(self.corrective_iterations):
             x = x + (target - step(x))
         s_std = s.std(0, unbiased=False).clamp(min=1e-6)
