@@ -55,3 +55,9 @@ python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
 python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
   \"bc_tanh_lin_obs0.1\": [\"bc\", {\"observation_noise\": 0.1, $LIN, $TANH}],
   \"bc_tanh_lin_obs0.3\": [\"bc\", {\"observation_noise\": 0.3, $LIN, $TANH}]}"
+# CCIL on Walker2d-v4 (Ke et al. report BC 1923 -> 3538 there with 10-50 trajectories): BC plus corrective labels from
+# a dynamics model T of s' - s (MBIL-C with alpha = 0, model_labels="corrective", residual_transition), the zoo's
+# backbone otherwise. Fitted on one trajectory, T barely depends on the action (docs/method.md): this measures what such
+# labels do to the return.
+python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
+  \"ccil_residual\": [\"mbil_c\", {\"alpha\": 0.0, \"alpha_model\": 1.0, \"model_labels\": \"corrective\", \"residual_transition\": true}]}"
