@@ -488,3 +488,16 @@ def test_fall_report_finds_where_a_clone_leaves_the_expert_states(tmp_path):
     assert "| Hopper-v4 | bc | 100 | 2 |" in first.stdout
     again = subprocess.run(cmd, capture_output=True, text=True)  # finished: nothing reruns
     assert again.returncode == 0 and len(rows_of(out)) == 2
+
+
+def test_transition_report_measures_what_the_action_changes_in_t():
+    from sb3_mbil.benchmark.dynamics import diagnostics_table, transition_diagnostics
+
+    row = transition_diagnostics("Hopper-v4", 100, {"model_labels": "corrective", "residual_transition": True,
+                                                   "model_max_steps": 50})
+    assert row["residual_transition"] and row["step"] > 0 and row["error"] > 0 and row["action_effect"] > 0
+    kept, tried = (int(x) for x in row["labels_kept"].split(" of "))
+    assert tried == 4 * 999 and 0 <= kept <= tried  # n_model_states draws per tuple of the 1000-step trajectory
+    assert "| Hopper-v4 | 100 | True |" in diagnostics_table([row])
+    with pytest.raises(ValueError, match="alpha_model > 0"):
+        transition_diagnostics("Hopper-v4", 100, {"alpha_model": 0.0})
