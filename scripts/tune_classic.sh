@@ -24,3 +24,15 @@ python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tunin
 python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tuning/bc_logit0.5_wd0.csv --overrides '{"bc": {"logit_penalty": 0.5, "weight_decay": 0.0}}'
 python scripts/benchmark.py --algos mbil_c ${LL/103-114/100-114} --csv results/tuning/mbil_c_logit0.5.csv --overrides '{"mbil_c": {"logit_penalty": 0.5, "weight_decay": 0.001}}'
 python scripts/benchmark.py --algos bc $COMMON --csv results/tuning/bc_logit0.5.csv --overrides '{"bc": {"logit_penalty": 0.5}}'
+
+# Stage 4: ELU hidden layers, the published comparison's 2x64 ELU (BASELINES.md section 0), for BC, MBIL and MBIL-C;
+# and BC on the published protocol (every 20th step) with ReLU, the logit penalty and ELU.
+ELU='"policy_kwargs": "dict(activation_fn=nn.ELU)"'
+python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tuning/bc_elu.csv --overrides "{\"bc\": {$ELU}}"
+python scripts/benchmark.py --algos bc $COMMON --csv results/tuning/bc_elu.csv --overrides "{\"bc\": {$ELU}}"
+python scripts/benchmark.py --algos mbil_c ${LL/103-114/100-114} --csv results/tuning/mbil_c_elu.csv --overrides "{\"mbil_c\": {$ELU}}"
+python scripts/benchmark.py --algos mbil ${LL/103-114/100-114} --csv results/tuning/mbil_elu.csv --overrides "{\"mbil\": {$ELU}}"
+PUB="--envs LunarLander-v3 --n-trajectories 1 --seeds 100-104 --episodes 100 --protocol published --num-cpus ${NUM_CPUS:-2}"
+python scripts/benchmark.py --algos bc $PUB --csv results/tuning/published_bc.csv
+python scripts/benchmark.py --algos bc $PUB --csv results/tuning/published_bc_logit0.5.csv --overrides '{"bc": {"logit_penalty": 0.5}}'
+python scripts/benchmark.py --algos bc $PUB --csv results/tuning/published_bc_elu.csv --overrides "{\"bc\": {$ELU}}"
