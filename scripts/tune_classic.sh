@@ -25,7 +25,7 @@ python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tunin
 python scripts/benchmark.py --algos mbil_c ${LL/103-114/100-114} --csv results/tuning/mbil_c_logit0.5.csv --overrides '{"mbil_c": {"logit_penalty": 0.5, "weight_decay": 0.001}}'
 python scripts/benchmark.py --algos bc $COMMON --csv results/tuning/bc_logit0.5.csv --overrides '{"bc": {"logit_penalty": 0.5}}'
 
-# Stage 4: ELU hidden layers, the published comparison's 2x64 ELU (BASELINES.md section 0), for BC, MBIL and MBIL-C;
+# Stage 4: ELU hidden layers, the 2x64 ELU policies of the published comparison (CKIL's appendix), for BC, MBIL and MBIL-C;
 # and BC on the published protocol (every 20th step) with ReLU, the logit penalty and ELU.
 ELU='"policy_kwargs": "dict(activation_fn=nn.ELU)"'
 python scripts/benchmark.py --algos bc ${LL/103-114/100-114} --csv results/tuning/bc_elu.csv --overrides "{\"bc\": {$ELU}}"
