@@ -12,7 +12,6 @@ import itertools
 import logging
 import re
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,7 +20,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_mbil import ALGORITHMS
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
-from sb3_mbil.benchmark.results import append_rows, finished_keys, read_result_rows
+from sb3_mbil.benchmark.results import append_rows, finished_keys, settings_by_cell
 
 CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit",
                  "heldout_bc_loss"]
@@ -118,10 +117,7 @@ def check_variant_settings(variants: dict[str, tuple[str, dict[str, Any]]], envs
     earlier rows in ``csv_path`` can have been run with other settings (the zoo's entry changed since). Either would
     put one label on two different things.
     """
-    earlier: dict[tuple[str, str], set[str]] = {}
-    if Path(csv_path).is_file():
-        for row in read_result_rows(csv_path):
-            earlier.setdefault((row["algo"], row["env"]), set()).add(row["settings"])
+    earlier = settings_by_cell(csv_path)
     for env in envs:
         seen: dict[str, str] = {}
         for name, (algo, variant_settings) in variants.items():

@@ -113,13 +113,9 @@ def check_grid_settings(runs: list[Run], csv_path: str, overrides: dict[str, dic
     """Refuse, with a ``ValueError`` naming both, runs whose (algo, env) already has rows in ``csv_path`` run with
     other settings (the zoo's entry, the overrides or the protocol changed since): a grid resumed across such a change
     would average two different things under one name. ``pool``: one pool, or one per env."""
-    from sb3_mbil.benchmark.results import read_result_rows
+    from sb3_mbil.benchmark.results import settings_by_cell
 
-    if not Path(csv_path).is_file():
-        return
-    earlier: dict[tuple[str, str], set[str]] = {}
-    for row in read_result_rows(csv_path):
-        earlier.setdefault((row["algo"], row["env"]), set()).add(row["settings"])
+    earlier = settings_by_cell(csv_path)
     for algo, env in dict.fromkeys((r.algo, r.env) for r in runs):
         env_pool = pool.get(env) if isinstance(pool, dict) else pool
         column = settings_column(algo, env, overrides, env_pool, protocol)

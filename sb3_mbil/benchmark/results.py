@@ -83,6 +83,16 @@ def append_row(path: str | os.PathLike, row: dict, columns: list[str]) -> None:
     append_rows(path, [row], columns)
 
 
+def settings_by_cell(path: str | os.PathLike) -> dict[tuple[str, str], set[str]]:
+    """The ``settings`` values of a results CSV's rows per (algo, env) (empty when the file does not exist): what the
+    grid's and the curves' settings checks compare a new run's settings with."""
+    out: dict[tuple[str, str], set[str]] = {}
+    if Path(path).is_file():
+        for row in read_result_rows(path):
+            out.setdefault((row["algo"], row["env"]), set()).add(row["settings"])
+    return out
+
+
 def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -> None:
     """Append complete lines in one write under an exclusive lock, so a run's rows land together
     (a run interrupted while saving leaves none of them, and is redone on resume). An interrupted last line

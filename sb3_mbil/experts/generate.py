@@ -244,11 +244,11 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         if resume is None and folder.exists():  # interrupted without a checkpoint: start again from scratch
             shutil.rmtree(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+        progress = _read_progress(folder)
         done = 0
         if resume is not None:
             ckpt, steps = resume
-            done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+            done = _steps_done(progress, ckpt, steps)
             _prepare_continuation(ckpt, env_id)
             cmd += ["-i", str(ckpt)]
         remaining = budget - done
@@ -357,8 +357,7 @@ def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = 
     if not ids or resume is None or not progress_file.is_file():
         return False
     progress = json.loads(progress_file.read_text())
-    ckpt, steps = resume
-    done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+    done = _steps_done(progress, *resume)
     if done >= (n_timesteps or max_timesteps or _zoo_budget(env_id, algo)):
         return False
     progress.setdefault("refused", []).append(f"{env_id}_{ids[-1]}")
@@ -374,9 +373,9 @@ def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
         needs_buffer = any(run.glob("rl_model_replay_buffer_*_steps.pkl"))
         ckpts = []
         for p in run.glob("rl_model_*_steps.zip"):
-            middle = p.stem[len("rl_model_"):-len("_steps")]
-            if middle.isdigit() and (not needs_buffer or (run / f"rl_model_replay_buffer_{middle}_steps.pkl").is_file()):
-                ckpts.append((int(middle), p))
+            steps = _checkpoint_steps(p)
+            if steps is not None and (not needs_buffer or (run / f"rl_model_replay_buffer_{steps}_steps.pkl").is_file()):
+                ckpts.append((steps, p))
         if ckpts:
             steps, path = max(ckpts)
             return path, steps
@@ -384,8 +383,20 @@ def _latest_checkpoint(runs_dir: Path, env_id: str) -> tuple[Path, int] | None:
 
 
 def _checkpoint_steps(path: Path) -> int | None:
+    """The step count in a checkpoint's name (``rl_model_<steps>_steps.zip``), or None."""
     middle = path.stem[len("rl_model_"):-len("_steps")] if path.stem.startswith("rl_model_") else ""
     return int(middle) if middle.isdigit() and path.stem.endswith("_steps") else None
+
+
+def _read_progress(folder: Path) -> dict:
+    """A zoo run folder's ``progress.json``: the steps done before each run of the cached training."""
+    progress_file = folder / "progress.json"
+    return json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+
+
+def _steps_done(progress: dict, ckpt: Path, steps: int) -> int:
+    """Steps of the whole cached training at a checkpoint: those before its run plus its own."""
+    return progress["steps_before"].get(ckpt.parent.name, 0) + steps
 
 
 def export_zoo_checkpoint(env_id: str, algo: str, dest: str | os.PathLike, seed: int = 0,
@@ -399,9 +410,7 @@ def export_zoo_checkpoint(env_id: str, algo: str, dest: str | os.PathLike, seed:
     if resume is None:
         raise ValueError(f"checkpoint: expected a checkpoint of the zoo run in {folder}, found none")
     ckpt, steps = resume
-    progress_file = folder / "progress.json"
-    progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
-    done = progress["steps_before"].get(ckpt.parent.name, 0) + steps
+    done = _steps_done(_read_progress(folder), ckpt, steps)
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     copies = [(ckpt, dest / f"rl_model_{done}_steps.zip")]
@@ -429,22 +438,21 @@ def import_zoo_checkpoint(env_id: str, algo: str, source: str | os.PathLike, see
     steps, path = max(carried)
     folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
     runs_dir = folder / algo
-    progress_file = folder / "progress.json"
-    progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {"steps_before": {}}
+    progress = _read_progress(folder)
     if _zoo_finished(runs_dir, env_id):
         return False
     resume = _latest_checkpoint(runs_dir, env_id)
-    if resume is not None and progress["steps_before"].get(resume[0].parent.name, 0) + resume[1] >= steps:
+    if resume is not None and _steps_done(progress, *resume) >= steps:
         return False
     ids = _run_ids(runs_dir, env_id)
     run = runs_dir / f"{env_id}_{ids[-1] + 1 if ids else 1}"
     run.mkdir(parents=True)
     vecnormalize = path.parent / f"rl_model_vecnormalize_{steps}_steps.pkl"
-    if vecnormalize.is_file():
-        shutil.copyfile(vecnormalize, run / vecnormalize.name)
-    shutil.copyfile(path, run / path.name)  # last: the checkpoint counts only once it is whole
+    for carried_file in ([vecnormalize] if vecnormalize.is_file() else []) + [path]:  # the checkpoint last, whole or absent
+        with atomic_write(run / carried_file.name) as tmp:
+            shutil.copyfile(carried_file, tmp)
     progress["steps_before"][run.name] = 0
-    _write_json(progress_file, progress)
+    _write_json(folder / "progress.json", progress)
     logger.info("%s: continuing from the carried checkpoint %s (%d steps done)", env_id, path, steps)
     return True
 
