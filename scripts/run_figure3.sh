@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue 17: Figure 3 with every Discrete-capable algorithm of sb3_mbil.ALGORITHMS, in the order the compute allows
 # (about 2 000 runs; each stage resumes, rows are appended as they finish). Ray by default (one torch thread per
-# task, as many tasks as cores); CURVE_RUNNER=--local runs without Ray. BENCHMARKS.md: python scripts/make_benchmarks.py --overwrite
+# task, as many tasks as cores); CURVE_RUNNER=--local runs without Ray. BC, MBIL and MBIL-C run their zoo entries'
+# ELU hidden layers; the earlier ReLU rows are in results/classic_control*_relu.csv. BENCHMARKS.md: python scripts/make_benchmarks.py --overwrite
 #   bash scripts/run_figure3.sh published   # 5 seeds, each algorithm's published subsampling
 #   bash scripts/run_figure3.sh second      # the second experts, N = 1 and 3, 10 seeds
 #   bash scripts/run_figure3.sh full        # the first experts, full trajectories, 10 seeds

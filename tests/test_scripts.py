@@ -54,13 +54,13 @@ def test_a_missing_extra_is_named(tmp_path):
 
 
 def test_committed_files_are_replaced_only_with_overwrite(tmp_path):
-    committed = "results/classic_control.png"
+    committed = "results/classic_control_relu.png"
     before = (REPO / committed).read_bytes()
-    out = script("scripts/plot_results.py", "--csv", "results/classic_control.csv", "--out", committed)
+    out = script("scripts/plot_results.py", "--csv", "results/classic_control_relu.csv", "--out", committed)
     assert out.returncode == 1
     assert out.stderr.strip() == f"plot_results.py: --out: {committed} is a committed file; pass --overwrite to replace it"
     assert (REPO / committed).read_bytes() == before
-    fresh = script("scripts/plot_results.py", "--csv", "results/classic_control.csv", "--out", str(tmp_path / "p.png"),
+    fresh = script("scripts/plot_results.py", "--csv", "results/classic_control_relu.csv", "--out", str(tmp_path / "p.png"),
                    "--reps", "50")
     assert fresh.returncode == 0, fresh.stderr[-2000:]
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"

@@ -11,8 +11,9 @@ import optuna
 import pytest
 import yaml
 
-REPO = Path(__file__).resolve().parent.parent
 from sb3_mbil import ALGORITHMS
+
+REPO = Path(__file__).resolve().parent.parent
 
 TINY = {
     "mbil": ["--hyperparams", "flow_max_steps:40", "noise_grid:[0.1]", "flow_hidden:[32]"],
@@ -53,6 +54,8 @@ def test_train_enjoy_record_video(algo, tmp_path):
     config = dict(yaml.unsafe_load((run_dir / env / "config.yml").read_text()))
     assert config["expert_pool"] == env and config["n_expert_trajectories"] == 1
     assert "Eval num_timesteps=60" in train.stdout  # EvalCallback counts gradient steps
+    if algo in ("bc", "mbil", "mbil_c"):  # the published comparison's ELU hidden layers on classic control
+        assert config["policy_kwargs"] == "dict(activation_fn=nn.ELU)"
 
     enjoy = run(["-m", "rl_zoo3.enjoy", "--algo", algo, "--env", env, "-f", "logs", "--no-render", "-n", "30"],
                 tmp_path)

@@ -241,13 +241,25 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "every 20th step for BC, EDM, RCAL, DSFN, ValueDICE, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL full trajectories; 5 seeds.",
                      published=True),
-        control_section("results/classic_control_published.csv", "results/classic_control_published_next.csv"),
-        grid_section("Figure 3: the published protocol, a control", "results/classic_control_published_next.csv", reps,
-                     "`--protocol published_next`: each kept step and its next step as labelled pairs, so that BC sees "
-                     "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False),
         grid_section("Figure 3: full trajectories, the second expert", "results/classic_control_second.csv", reps,
                      "Each env's second expert pool (`--second-expert`: PPO CartPole-v1, DQN Acrobot-v1, DQN "
                      "LunarLander-v3), N = 1 and 3.", anchors=False),
+        grid_section("Figure 3 with ReLU hidden layers: full trajectories, the first expert",
+                     "results/classic_control_relu.csv", reps,
+                     "The earlier runs of BC, MBIL and MBIL-C, before the zoo's classic-control entries moved to the "
+                     "published comparison's ELU hidden layers. Plot: `results/classic_control_relu.png`."),
+        grid_section("Figure 3 with ReLU hidden layers: the published protocol",
+                     "results/classic_control_published_relu.csv", reps,
+                     "As above, every 20th step of each trajectory; 5 seeds.", published=True),
+        control_section("results/classic_control_published_relu.csv",
+                        "results/classic_control_published_next_relu.csv"),
+        grid_section("Figure 3 with ReLU hidden layers: the published protocol, a control",
+                     "results/classic_control_published_next_relu.csv", reps,
+                     "`--protocol published_next`: each kept step and its next step as labelled pairs, so that BC sees "
+                     "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False),
+        grid_section("Figure 3 with ReLU hidden layers: full trajectories, the second expert",
+                     "results/classic_control_second_relu.csv", reps,
+                     "As above, on each env's second expert pool, N = 1 and 3.", anchors=False),
         curves_section("Figure 4: MuJoCo, one trajectory, every Box-capable algorithm", "results/figure4.csv",
                        "`bash scripts/run_figure4.sh`: each algorithm's zoo settings (BC, MBIL and MBIL-C on the "
                        "bounded-mean policy with a linearly decaying learning rate), 50 000 updates, seeds 0-4. "
