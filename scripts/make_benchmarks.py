@@ -1,4 +1,5 @@
 """Regenerate BENCHMARKS.md from the committed result files (sb3_mbil.benchmark.page) and docs/benchmarks_notes.md.
+With --overwrite the page's figures are redrawn too, each beside its CSV (results/x.csv -> results/x.png).
 
     python scripts/make_benchmarks.py --overwrite
 """
@@ -19,7 +20,7 @@ def main(argv=None):
     from sb3_mbil.benchmark.page import benchmarks_page
     from sb3_mbil.benchmark.results import write_text
 
-    write_text(a.out, benchmarks_page(reps=a.reps, notes=a.notes))
+    write_text(a.out, benchmarks_page(reps=a.reps, notes=a.notes, plots=a.overwrite))
     print(f"wrote {a.out}")
 
 

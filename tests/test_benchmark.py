@@ -418,6 +418,9 @@ def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatc
     monkeypatch.chdir(tmp_path)
     text = page.benchmarks_page(reps=50, notes=tmp_path / "none.md")
     assert "## Figure 3: the published protocol" in text and "8 runs from `results/classic_control_published.csv`" in text
+    # its figure, written beside the CSV and linked from the page
+    assert (out / "classic_control_published.png").read_bytes()[:4] == b"\x89PNG"
+    assert "(results/classic_control_published.png)" in text
     assert "No results yet (`results/classic_control.csv` does not exist)" in text
     assert "| mbil | CartPole-v1 | 1 | 4 | +130.0 | [+130.0, +130.0] | 0 of 4 | above |" in text
     # BC at 171.5 on average against the published 170 at N=1: within 0.15 normalised

@@ -154,13 +154,32 @@ def control_section(published_path: str, control_path: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def figure(rows, path: str, title: str, plots: bool) -> str:
+    """The plot of a section: written beside its CSV (``results/x.csv`` -> ``results/x.png``) when ``plots``, and
+    linked from the page."""
+    png = str(Path(path).with_suffix(".png"))
+    if plots:
+        import matplotlib.pyplot as plt
+
+        if "gradient_step" in rows[0]:  # learning curves (Figure 4 layout), else the Figure 3 grid
+            from sb3_mbil.benchmark.curves import plot_curves, pool_experts
+
+            fig = plot_curves(rows, png, expert=pool_experts(rows))
+        else:
+            from sb3_mbil.benchmark.report import plot
+
+            fig = plot(rows, png)
+        plt.close(fig)
+    return f"![{title}]({png})"
+
+
 def grid_section(title: str, path: str, reps: int, intro: str = "", published: bool = False,
-                 anchors: bool = True) -> str:
+                 anchors: bool = True, plots: bool = False) -> str:
     if not os.path.isfile(path):
         return f"## {title}\n\nNo results yet (`{path}` does not exist).\n"
     rows = read_rows(path)
     commits = ", ".join(sorted({r.get("commit", "") for r in rows}))
-    parts = [f"## {title}", "", intro, "",
+    parts = [f"## {title}", "", intro, "", figure(rows, path, title, plots), "",
              f"{len(rows)} runs from `{path}` (commits: {commits}); mean +- std over seeds (number of seeds), each seed "
              "the mean return of its evaluation episodes.", table(rows, anchors=anchors and not published), "",
              "### Every algorithm against BC, paired (the same draws and seeds)", "", paired_ci_table(rows), "",
@@ -170,7 +189,7 @@ def grid_section(title: str, path: str, reps: int, intro: str = "", published: b
     return "\n".join(parts) + "\n"
 
 
-def curves_section(title: str, path: str, intro: str = "") -> str:
+def curves_section(title: str, path: str, intro: str = "", plots: bool = False) -> str:
     from sb3_mbil.benchmark.curves import curve_table, paired_table, pool_experts
     from sb3_mbil.benchmark.results import read_result_rows
 
@@ -178,7 +197,8 @@ def curves_section(title: str, path: str, intro: str = "") -> str:
         return f"## {title}\n\nNo results yet (`{path}` does not exist).\n"
     rows = read_result_rows(path)
     commits = ", ".join(sorted({r.get("commit", "") for r in rows}))
-    return "\n".join([f"## {title}", "", intro, "", f"From `{path}` (commits: {commits}).", "",
+    return "\n".join([f"## {title}", "", intro, "", figure(rows, path, title, plots), "",
+                      f"From `{path}` (commits: {commits}).", "",
                       curve_table(rows, pool_experts(rows), last=10), "", paired_table(rows, "bc", last=10)]) + "\n"
 
 
@@ -221,8 +241,8 @@ def paired_difference(d: np.ndarray) -> str:
     return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}], above on {int((d > 0).sum())} of {len(d)}"
 
 
-def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes.md") -> str:
-    """The whole BENCHMARKS.md."""
+def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes.md", plots: bool = True) -> str:
+    """The whole BENCHMARKS.md; with ``plots``, each section's figure is written beside its CSV."""
     from sb3_mbil.benchmark.grid import git_commit
 
     notes_text = Path(notes).read_text() if os.path.isfile(notes) else ""
@@ -234,39 +254,38 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
     sections = [
         head, notes_text,
         grid_section("Figure 3: full trajectories, the first expert", "results/classic_control.csv", reps,
-                     "Every step of each drawn trajectory (`--protocol full`), the shipped pools. Plot: "
-                     "`results/classic_control.png`."),
+                     "Every step of each drawn trajectory (`--protocol full`), the shipped pools.", plots=plots),
         grid_section("Figure 3: the published protocol", "results/classic_control_published.csv", reps,
                      "Each baseline's own code's subsampling (`--protocol published`, `sb3_mbil.benchmark.protocol`): "
                      "every 20th step for BC, EDM, RCAL, DSFN, ValueDICE, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL full trajectories; 5 seeds.",
-                     published=True),
+                     published=True, plots=plots),
         grid_section("Figure 3: full trajectories, the second expert", "results/classic_control_second.csv", reps,
                      "Each env's second expert pool (`--second-expert`: PPO CartPole-v1, DQN Acrobot-v1, DQN "
-                     "LunarLander-v3), N = 1 and 3.", anchors=False),
+                     "LunarLander-v3), N = 1 and 3.", anchors=False, plots=plots),
         grid_section("Figure 3 with ReLU hidden layers: full trajectories, the first expert",
                      "results/classic_control_relu.csv", reps,
                      "The earlier runs of BC, MBIL and MBIL-C, before the zoo's classic-control entries moved to the "
-                     "published comparison's ELU hidden layers. Plot: `results/classic_control_relu.png`."),
+                     "published comparison's ELU hidden layers.", plots=plots),
         grid_section("Figure 3 with ReLU hidden layers: the published protocol",
                      "results/classic_control_published_relu.csv", reps,
-                     "As above, every 20th step of each trajectory; 5 seeds.", published=True),
+                     "As above, every 20th step of each trajectory; 5 seeds.", published=True, plots=plots),
         control_section("results/classic_control_published_relu.csv",
                         "results/classic_control_published_next_relu.csv"),
         grid_section("Figure 3 with ReLU hidden layers: the published protocol, a control",
                      "results/classic_control_published_next_relu.csv", reps,
                      "`--protocol published_next`: each kept step and its next step as labelled pairs, so that BC sees "
-                     "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False),
+                     "the labels MBIL gets from the successors (s', a') of the published protocol.", anchors=False, plots=plots),
         grid_section("Figure 3 with ReLU hidden layers: full trajectories, the second expert",
                      "results/classic_control_second_relu.csv", reps,
-                     "As above, on each env's second expert pool, N = 1 and 3.", anchors=False),
+                     "As above, on each env's second expert pool, N = 1 and 3.", anchors=False, plots=plots),
         curves_section("Figure 4: MuJoCo, one trajectory, every Box-capable algorithm", "results/figure4.csv",
                        "`bash scripts/run_figure4.sh`: each algorithm's zoo settings (BC, MBIL and MBIL-C on the "
                        "bounded-mean policy with a linearly decaying learning rate), 50 000 updates, seeds 0-4. "
-                       "Walker2d-v4 and Ant-v4 join when their retrained experts' pools ship."),
+                       "Walker2d-v4 and Ant-v4 join when their retrained experts' pools ship.", plots=plots),
         curves_section("Figure 4, the first backbone: MBIL and BC", "results/mujoco.csv",
                        "The earlier runs: a linear-output Gaussian mean and a constant learning rate, the previous "
-                       "expert pools of Walker2d-v4 and Ant-v4."),
+                       "expert pools of Walker2d-v4 and Ant-v4.", plots=plots),
         peers_section("results/peers.csv"),
     ]
     return "\n".join(s for s in sections if s) + "\n"

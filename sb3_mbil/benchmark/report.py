@@ -131,7 +131,7 @@ def plot(rows, path: str):
     envs = sorted({r["env"] for r in rows})
     algos = sorted({r["algo"] for r in rows})
     colors = variant_colors(algos)
-    expert = expert_returns(envs)
+    expert = expert_returns(envs, rows)
     fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 4), squeeze=False)
     for ax, env in zip(axes[0], envs):
         for algo in algos:
@@ -150,8 +150,17 @@ def plot(rows, path: str):
 
 
 def variant_colors(names) -> dict[str, str]:
-    """One colour per algorithm or variant, the same in every panel (even where a panel lacks some)."""
-    return {name: f"C{i % 10}" for i, name in enumerate(sorted(set(names)))}
+    """One colour per algorithm or variant, the same in every panel and every figure: the algorithms of
+    ``sb3_mbil.ALGORITHMS`` keep their place in the tab10 palette, other variants take tab20's light colours."""
+    from matplotlib import colormaps
+
+    from sb3_mbil import ALGORITHMS
+
+    palette = list(colormaps["tab10"].colors) + list(colormaps["tab20"].colors[1::2])
+    known = list(ALGORITHMS)
+    others = sorted(set(names) - set(known))
+    return {name: palette[(known.index(name) if name in known else len(known) + others.index(name)) % len(palette)]
+            for name in set(names)}
 
 
 def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
@@ -166,8 +175,10 @@ def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
             legend.setdefault(label, handle)
     axes[0][0].legend(list(legend.values()), list(legend))
     fig.tight_layout()
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    fig.savefig(path, dpi=120)
+    from sb3_mbil.common.files import atomic_write
+
+    with atomic_write(path) as tmp:  # a figure is written whole or not at all
+        fig.savefig(tmp, dpi=120, format=os.path.splitext(path)[1][1:] or "png")
 
 
 def paired_scores(rows, algo: str, reference: str = "bc") -> tuple[np.ndarray, np.ndarray] | None:
