@@ -277,8 +277,10 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
 
 def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path, monkeypatch):
     """Machines that start with an empty cache: the newest checkpoint, exported without its replay buffer to a folder
-    that can be committed, is where the next machine's training continues (on a fresh buffer, after the zoo's warm-up)."""
+    that can be committed, is where the next machine's training continues (on a buffer its own policy refills)."""
     import json
+
+    from stable_baselines3.common.save_util import load_from_pkl
 
     from sb3_mbil.experts import export_zoo_checkpoint, import_zoo_checkpoint, train_zoo_expert
 
@@ -296,14 +298,19 @@ def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path,
     assert sorted(p.name for p in carried.iterdir()) == ["rl_model_200_steps.zip"]  # no replay buffer
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(second))
-    assert import_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400)
-    expert = train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    assert import_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400, refill_steps=150)
     folder = second / "zoo" / "dqn-CartPole-v1-seed0-n400"
+    # the replay buffer is refilled by the checkpoint's own policy: 150 transitions of real CartPole steps
+    buffer = load_from_pkl(folder / "dqn" / "CartPole-v1_1" / "rl_model_replay_buffer_200_steps.pkl")
+    assert buffer.size() == 150 and np.isin(buffer.actions[:150], [0, 1]).all() and buffer.dones[:150].sum() >= 1
+    going_on = ~buffer.dones[:149, 0].astype(bool)  # within an episode, each next state is the next step's state
+    assert np.allclose(buffer.next_observations[:149][going_on], buffer.observations[1:150][going_on])
+    expert = train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
     progress = json.loads((folder / "progress.json").read_text())
     assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200}  # 200 steps left, not 400
     log = folder.with_suffix(".log").read_text()
-    assert "Loading pretrained agent" in log and "Loading replay buffer" not in log
-    assert DQN.load(folder / "dqn" / "CartPole-v1_2" / "CartPole-v1.zip").learning_starts > 0  # the zoo's warm-up
+    assert "Loading pretrained agent" in log and "Loading replay buffer" in log
+    assert DQN.load(folder / "dqn" / "CartPole-v1_2" / "CartPole-v1.zip").learning_starts == 0  # no random warm-up
     assert expert.source == "zoo:dqn seed=0"
     # a cache at least as far (here: finished) is left alone; so is an empty carried folder
     assert not import_zoo_checkpoint("CartPole-v1", "dqn", carried, n_timesteps=400)
