@@ -410,10 +410,11 @@ class OfflineAlgorithm(BaseAlgorithm):
         self._train_stats[key] = (total + value, count + 1)
 
     def _check_parameters(self) -> None:
-        """Stop at the first non-finite parameter of any saved module (a loss can stay finite while a step is not)."""
+        """Stop at the first non-finite parameter of any saved module (a loss can stay finite while a step is not);
+        frozen ones (target networks, DSFN's feature network) are copies of checked ones and are skipped."""
         if self._parameters is None:
             self._parameters = [(f"{name}.{k}", p) for name, module in self.torch_modules().items()
-                                for k, p in module.named_parameters()]
+                                for k, p in module.named_parameters() if p.requires_grad]
         norms = th._foreach_norm([p.detach() for _, p in self._parameters])
         if not bool(th.isfinite(th.stack(norms)).all()):
             bad = next(k for (k, _), n in zip(self._parameters, norms) if not th.isfinite(n))

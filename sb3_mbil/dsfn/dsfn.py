@@ -14,6 +14,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.networks import make_target, q_at
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.type_aliases import take
 from sb3_mbil.common.validation import check_int, check_real, check_sizes
 from sb3_mbil.dsfn.policies import DSFNState, SuccessorFeatures
 
@@ -226,13 +227,39 @@ class DSFN(OfflineAlgorithm):
         self._step(self.policy.optimizer, loss)
         self._record("train/bc_loss", loss)
 
+    @th.no_grad()
+    def _phase_cache(self) -> dict[str, th.Tensor]:
+        """What stays fixed during a phase, over every expert transition, computed once per phase: phi(s, a) (the
+        feature network is frozen after the warm start), pi_i(. | s') in a successor-feature phase (pi_i is not
+        trained there) and the reward w . phi(s, a) in a DQN phase (w is fixed there). The same values as computing
+        them on each minibatch, without the forward passes."""
+        key = (self.state.phase_name, int(self.state.iteration))
+        if self._cache is None or self._cache["key"] != key:
+            tr = self.expert_transitions()
+            phi = self.phi(tr.observations, tr.actions)
+            cache: dict[str, Any] = {"key": key, "phi": phi}
+            if key[0] == "successor_features":
+                cache["next_policy"] = self._policy_probs(tr.next_observations)
+            elif key[0] == "dqn":
+                cache["reward"] = phi @ self.state.w
+            self._cache = cache
+        return self._cache
+
+    def _on_new_data(self) -> None:
+        super()._on_new_data()
+        self._cache = None
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_cache"]
+
     def _successor_step(self) -> None:
         # Successor features of pi_i: psi(s, a) <- phi(s, a) + gamma (1 - done) E_{a' ~ pi_i(s')} psi'(s', a').
-        batch = self.sample(self.expert_transitions())
+        transitions, cache = self.expert_transitions(), self._phase_cache()
+        i = self._sample_indices(len(transitions.observations))
+        batch = take(transitions, i)
         with th.no_grad():
-            next_psi = (self._policy_probs(batch.next_observations).unsqueeze(-1)
-                        * self.psi(self.successor_target, batch.next_observations)).sum(1)
-            target = self.phi(batch.observations, batch.actions) + self.gamma * (1 - batch.dones).view(-1, 1) * next_psi
+            next_psi = (cache["next_policy"][i].unsqueeze(-1) * self.psi(self.successor_target, batch.next_observations)).sum(1)
+            target = cache["phi"][i] + self.gamma * (1 - batch.dones).view(-1, 1) * next_psi
         psi = self.psi(self.successor, batch.observations)[th.arange(len(batch.actions)), batch.actions]
         loss = (psi - target).pow(2).sum(-1).mean()
         self._step(self.successor.optimizer, loss)
@@ -242,9 +269,11 @@ class DSFN(OfflineAlgorithm):
 
     def _dqn_step(self) -> None:
         # Batch DQN on r = w . phi(s, a): Q(s, a) <- r + gamma (1 - done) max_b Q'(s', b).
-        batch = self.sample(self.expert_transitions())
+        transitions, cache = self.expert_transitions(), self._phase_cache()
+        i = self._sample_indices(len(transitions.observations))
+        batch = take(transitions, i)
         with th.no_grad():
-            reward = self.phi(batch.observations, batch.actions) @ self.state.w
+            reward = cache["reward"][i]
             next_q = self.q_target.logits(batch.next_observations).max(-1).values
             target = reward + self.gamma * (1 - batch.dones) * next_q
         loss = nn.functional.smooth_l1_loss(q_at(self.policy.logits(batch.observations), batch.actions), target)
