@@ -6,16 +6,17 @@
 #   bash scripts/run_figure3.sh published   # 5 seeds, each algorithm's published subsampling
 #   bash scripts/run_figure3.sh second      # the second experts, N = 1 and 3, 10 seeds
 #   bash scripts/run_figure3.sh full        # the first experts, full trajectories, 10 seeds
-#   bash scripts/run_figure3.sh published dsfn   # DSFN alone (about an hour per run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNNER=${CURVE_RUNNER:-}
 ENVS="CartPole-v1 Acrobot-v1 LunarLander-v3"
-# The grid is seed-major (every algorithm at a seed before the next seed), so DSFN runs in its own pass after the
-# others: at its reference settings (a 50 000-step warm start, then up to 10 rounds of 30 000 DQN and 50 000
-# successor-feature steps) one run takes about an hour here, against 15-170 s for the others.
-ALGOS=${FIGURE3_ALGOS:-"bc mbil mbil_c edm rcal avril iq_learn valuedice"}
-if [ "${2:-}" = "dsfn" ]; then ALGOS="dsfn"; fi
+# The grid is seed-major (every algorithm at a seed before the next seed), so the two costly algorithms run in passes
+# of their own after the others: DSFN at its reference settings (a 50 000-step warm start, then up to 10 rounds of
+# 30 000 DQN and 50 000 successor-feature steps) takes 40-60 min a run here, ValueDICE (1e5 updates of batch 256,
+# about 6 ms each) about 11 min, against 0.5-3 min for the others.
+#   bash scripts/run_figure3.sh published valuedice   # ValueDICE alone (likewise dsfn)
+ALGOS=${FIGURE3_ALGOS:-"bc mbil mbil_c edm rcal avril iq_learn"}
+case "${2:-}" in dsfn|valuedice) ALGOS="$2" ;; "") ;; *) echo "second argument: dsfn or valuedice" >&2; exit 2 ;; esac
 case "${1:-}" in
   published)
     python scripts/benchmark.py --algos $ALGOS --envs $ENVS --n-trajectories 1 3 7 10 15 --seeds 0-4 --episodes 300 \
