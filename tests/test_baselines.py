@@ -115,6 +115,32 @@ def test_dsfn_margin_shrinks_across_iterations(sharp):
     assert model.num_timesteps == n
 
 
+def test_dsfn_phase_cache_holds_what_each_minibatch_would_compute(sharp):
+    """phi(s, a), pi_i(s') and w . phi(s, a) are computed once per phase over every transition: at each phase they
+    equal the direct computation, and a new phase (or new data) rebuilds them."""
+    mdp, data, _, _ = sharp
+    model = DSFN("MlpPolicy", mdp.make_env(), expert_data=data, warm_start_steps=20, dqn_steps=10, sf_steps=10,
+                 max_iterations=2, seed=0)
+    tr = model.expert_transitions()
+    seen = set()
+    for _ in range(model.schedule_steps):
+        if model.training_complete():
+            break
+        model.learn(1, reset_num_timesteps=False)
+        if model.state.phase_name in ("successor_features", "dqn"):
+            cache = model._phase_cache()
+            seen.add(cache["key"])
+            with th.no_grad():
+                th.testing.assert_close(cache["phi"], model.phi(tr.observations, tr.actions))
+                if cache["key"][0] == "successor_features":
+                    th.testing.assert_close(cache["next_policy"], model._policy_probs(tr.next_observations))
+                else:
+                    th.testing.assert_close(cache["reward"], model.phi(tr.observations, tr.actions) @ model.state.w)
+    assert {k[0] for k in seen} == {"successor_features", "dqn"} and len(seen) >= 4
+    model.set_expert_data(data)
+    assert model._cache is None
+
+
 def test_shared_networks():
     """The shared critics, target copies and soft policy over Q (sb3_mbil.common.networks)."""
     from sb3_mbil.common.networks import MlpCritic, make_target, q_at, soft_q, soft_update
