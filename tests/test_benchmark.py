@@ -291,6 +291,13 @@ def test_curve_plot_keeps_each_variants_colour_across_panels(tmp_path):
     assert len({colours[1][v] for v in panels["B"]}) == 3
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert sorted(legend) == ["bc", "bc_wd1e-3", "expert", "mbil"]
+    # an algorithm keeps its colour in every figure, whatever else the figure holds
+    from matplotlib.colors import to_hex
+
+    from sb3_mbil.benchmark.report import variant_colors
+
+    other = variant_colors(["edm", "mbil", "zzz_variant"])
+    assert to_hex(other["mbil"]) == to_hex(colours[0]["mbil"]) and len({to_hex(c) for c in other.values()}) == 3
 
 
 @pytest.mark.parametrize("algo", ["mbil", "rcal"])

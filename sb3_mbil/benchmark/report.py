@@ -156,11 +156,12 @@ def variant_colors(names) -> dict[str, str]:
 
     from sb3_mbil import ALGORITHMS
 
+    names = set(names)  # read once: ``names`` may be a generator
     palette = list(colormaps["tab10"].colors) + list(colormaps["tab20"].colors[1::2])
     known = list(ALGORITHMS)
-    others = sorted(set(names) - set(known))
+    others = sorted(names - set(known))
     return {name: palette[(known.index(name) if name in known else len(known) + others.index(name)) % len(palette)]
-            for name in set(names)}
+            for name in names}
 
 
 def finish_figure(fig, axes, envs, xlabel: str, path: str) -> None:
