@@ -46,6 +46,21 @@ def test_subsampling_keeps_true_successors_inside_episodes(every, offset):
     assert sub.metadata["subsampled"] == {"every": every, "offset": offset, "n_episodes": 2, "n_steps": 32}
 
 
+def test_random_offsets_start_each_trajectory_at_its_own_step_with_true_successors():
+    demos = _labelled(lengths=(60, 61, 62, 63), terminated=(True, False, True, False))
+    sub = demos.subsample(20, "random", seed=3)
+    offsets = sub.metadata["subsampled"]["offsets"]
+    assert len(offsets) == 4 and all(0 <= o < 20 for o in offsets) and len(set(offsets)) > 1
+    assert demos.subsample(20, "random", seed=3).metadata == sub.metadata  # the same draw for a seed
+    kept = [(e, t) for e, (n, o) in enumerate(zip((60, 61, 62, 63), offsets)) for t in range(o, n, 20)]
+    assert [tuple(o) for o in sub.pairs()["observations"].astype(int)] == kept
+    tr = sub.transitions()
+    np.testing.assert_array_equal(tr["next_observations"][:, 0], tr["observations"][:, 0])  # never across episodes
+    np.testing.assert_array_equal(tr["next_observations"][:, 1], tr["observations"][:, 1] + 1)
+    with pytest.raises(ValueError, match="or 'random', found 'sometimes'"):
+        demos.subsample(20, "sometimes")
+
+
 def test_subsampled_data_round_trips_through_a_file(tmp_path):
     sub = _labelled().subsample(4, 1)
     back = Demonstrations.load(sub.save(tmp_path / "sub.npz"))

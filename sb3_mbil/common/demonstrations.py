@@ -177,9 +177,11 @@ class Demonstrations:
         meta["sampled"] = {"n": int(n), "seed": seed, "indices": [int(i) for i in idx]}
         return Demonstrations([self.trajectories[i] for i in idx], meta)
 
-    def subsample(self, every: int, offset: int = 0, with_next: bool = False) -> Demonstrations:
+    def subsample(self, every: int, offset: int | str = 0, with_next: bool = False, seed: int = 0) -> Demonstrations:
         """Keep every ``every``-th step of each trajectory, from step ``offset`` (the published baselines' data
-        protocol: EDM's and IQ-Learn's codes keep every 20th or 5th step).
+        protocol: EDM's and IQ-Learn's codes keep every 20th or 5th step). ``offset="random"``: each trajectory
+        starts at its own step drawn uniformly from [0, every) with ``seed`` (the GAIL codes' ``ExpertDataset``;
+        IQ-Learn's has the draw commented out and starts at 0).
 
         Each kept step t becomes its own one-step piece: ``(s_t, a_t)``, its true successor ``s_{t+1}`` and the
         expert's ``a_{t+1}`` as the piece's ``final_action``, so (s, a, s') and (s, a, s', a') are true one-step
@@ -192,14 +194,21 @@ class Demonstrations:
         from sb3_mbil.common.validation import check_int
 
         every = check_int("every", every, low=1)
-        offset = check_int("offset", offset, low=0)
-        if offset >= every:
-            raise ValueError(f"offset: expected an integer in [0, {every - 1}] for every={every}, found {offset}")
+        if offset == "random":
+            offsets = np.random.default_rng(seed).integers(0, every, size=len(self.trajectories)).tolist()
+        else:
+            if isinstance(offset, str):
+                raise ValueError(f"offset: expected an integer in [0, {every - 1}] or 'random', found {offset!r}")
+            offset = check_int("offset", offset, low=0)
+            if offset >= every:
+                raise ValueError(f"offset: expected an integer in [0, {every - 1}] for every={every} or 'random', "
+                                 f"found {offset}")
+            offsets = [offset] * len(self.trajectories)
         pieces = []
         steps = 2 if with_next else 1
-        for traj in self.trajectories:
+        for traj, start in zip(self.trajectories, offsets):
             n = len(traj)
-            for t in range(offset, n, every):
+            for t in range(start, n, every):
                 k = min(steps, n - t)  # steps kept in this piece
                 last = t + k == n
                 has_next_obs = t + k < len(traj.observations)
@@ -213,6 +222,8 @@ class Demonstrations:
                              f"{self.episode_lengths.tolist()[:10]})")
         meta = dict(self.metadata)
         meta["subsampled"] = {"every": every, "offset": offset, "n_episodes": len(self), "n_steps": self.n_steps}
+        if offset == "random":
+            meta["subsampled"].update(seed=int(seed), offsets=[int(o) for o in offsets])
         if with_next:
             meta["subsampled"]["with_next"] = True
         return Demonstrations(pieces, meta)

@@ -1,0 +1,51 @@
+"""Issue 17: does where each trajectory's subsampling starts decide BC on the published protocol?
+
+BC with its zoo settings on every 20th step of N drawn trajectories, each trajectory starting at step 0 (our
+`published` protocol today, and IQ-Learn's code) or at its own random step in [0, 20) (the GAIL codes'
+ExpertDataset), the same draws and seeds; one row per run appended to --csv.
+
+    python scripts/subsample_offset.py --env Acrobot-v1 --n-trajectories 3 10 --seeds 100-102 \
+        --csv results/tuning/subsample_offset.csv
+"""
+
+import argparse
+
+from sb3_mbil.benchmark.cli import parse_seeds, positive_int, run
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", required=True)
+    p.add_argument("--n-trajectories", type=positive_int, nargs="+", default=[3, 10])
+    p.add_argument("--seeds", type=parse_seeds, default=[100, 101, 102], help="e.g. 100-102")
+    p.add_argument("--every", type=positive_int, default=20)
+    p.add_argument("--episodes", type=positive_int, default=30)
+    p.add_argument("--csv", required=True)
+    a = p.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(1)
+    from sb3_mbil import ALGORITHMS, load_demonstrations
+    from sb3_mbil.benchmark.grid import git_commit, tuned_settings
+    from sb3_mbil.benchmark.results import append_row
+    from sb3_mbil.common.evaluation import evaluate
+
+    commit = git_commit()
+    for n in a.n_trajectories:
+        for s in a.seeds:
+            draw = load_demonstrations(a.env).sample(n, seed=s)
+            for offset in (0, "random"):
+                data = draw.subsample(a.every, offset, seed=s)
+                settings = tuned_settings("bc", a.env, {})
+                steps = int(float(settings.pop("n_timesteps")))
+                model = ALGORITHMS["bc"]("MlpPolicy", a.env, expert_data=data, seed=s, **settings).learn(steps)
+                returns = evaluate(model, a.env, a.episodes, seed=10**6 + s)
+                row = {"env": a.env, "n_trajectories": n, "seed": s, "offset": offset, "every": a.every,
+                       "n_pairs": data.n_steps, "mean_return": float(returns.mean()), "n_episodes": a.episodes,
+                       "commit": commit}
+                append_row(a.csv, row, list(row))
+                print(row, flush=True)
+
+
+if __name__ == "__main__":
+    run(main)
