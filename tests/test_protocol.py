@@ -88,10 +88,17 @@ def test_published_rates_follow_the_reference_codes():
     full = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="full")
     pub = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published")
     assert full.metadata["sampled"]["indices"] == pub.metadata["sampled"]["indices"]  # the same draw
-    assert pub.n_steps == sum((n + 19) // 20 for n in full.episode_lengths)
+    # each trajectory starts at its own step, drawn with the run's seed (IQ-Learn's code starts at step 0)
+    offsets = pub.metadata["subsampled"]["offsets"]
+    assert pub.metadata["subsampled"]["offset"] == "random" and pub.metadata["subsampled"]["seed"] == 0
+    assert pub.n_steps == sum(len(range(o, n, 20)) for n, o in zip(full.episode_lengths, offsets))
+    acro = demonstrations_for("bc", "Acrobot-v1", 10, seed=0, protocol="published").metadata["subsampled"]["offsets"]
+    assert len(set(acro)) > 1 and acro != demonstrations_for("bc", "Acrobot-v1", 10, seed=1, protocol="published"
+                                                             ).metadata["subsampled"]["offsets"]
+    assert demonstrations_for("iq_learn", "Acrobot-v1", 10, seed=0, protocol="published").metadata["subsampled"]["offset"] == 0
     assert set(PROTOCOLS) == {"full", "published", "published_next"}
     both = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published_next")
-    assert both.n_steps == sum(min(2, n - t) for n in full.episode_lengths for t in range(0, n, 20))
+    assert both.n_steps == sum(min(2, n - t) for n, o in zip(full.episode_lengths, offsets) for t in range(o, n, 20))
     with pytest.raises(ValueError, match="protocol: expected one of"):
         demonstrations_for("bc", "CartPole-v1", 1, seed=0, protocol="every-other")
 
@@ -128,3 +135,24 @@ def test_with_next_keeps_each_kept_step_and_its_next_step():
     np.testing.assert_array_equal(tu["next_observations"][:, 1], tu["observations"][:, 1] + 1)
     np.testing.assert_array_equal(tu["next_actions"][:, 0], tu["actions"][:, 0] + 1)
     assert sub.metadata["subsampled"]["with_next"] is True
+
+
+def test_the_grid_records_where_subsampling_starts_and_refuses_to_mix_starts(tmp_path):
+    """A published run's settings name its start; rows that started every trajectory at step 0 (before the start
+    became the reference codes') are not resumed into."""
+    import csv
+
+    from sb3_mbil.benchmark.grid import Run, check_grid_settings, settings_column
+
+    bc = settings_column("bc", "Acrobot-v1", protocol="published")
+    assert "('start', 'random')" in bc and "('every', 20)" in bc
+    assert "('start', 0)" in settings_column("iq_learn", "Acrobot-v1", protocol="published")
+    assert "start" not in settings_column("bc", "Acrobot-v1")  # full trajectories
+    path = tmp_path / "grid.csv"
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=["algo", "env", "settings"])
+        writer.writeheader()
+        writer.writerow({"algo": "bc", "env": "Acrobot-v1", "settings": bc.replace("('start', 'random'), ", "")})
+    with pytest.raises(ValueError, match="write the new runs to another CSV"):
+        check_grid_settings([Run("bc", "Acrobot-v1", 1, 0)], str(path), protocol="published")
+    check_grid_settings([Run("mbil", "Acrobot-v1", 1, 0)], str(path), protocol="published")  # no rows of its own

@@ -97,14 +97,14 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
 def settings_column(algo: str, env: str, overrides: dict[str, dict[str, Any]] | None = None, pool: str | None = None,
                     protocol: str = "full") -> str:
     """The ``settings`` column of a grid row: the constructor settings, the gradient steps and the data (pool,
-    protocol and its step rate), sorted."""
-    from sb3_mbil.benchmark.protocol import published_every
+    protocol, its step rate and where it starts), sorted."""
+    from sb3_mbil.benchmark.protocol import published_every, published_start
 
     settings = tuned_settings(algo, env, (overrides or {}).get(algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
     data = {"expert_pool": str(pool)} if pool else {}
     if protocol != "full":
-        data.update(protocol=protocol, every=published_every(algo, env))
+        data.update(protocol=protocol, every=published_every(algo, env), start=published_start(algo))
     return repr(sorted({**settings, "n_timesteps": steps, **data}.items()))
 
 

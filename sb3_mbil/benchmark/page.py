@@ -260,6 +260,11 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "every 20th step for BC, EDM, RCAL, DSFN, ValueDICE, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL full trajectories; 5 seeds.",
                      published=True, plots=plots),
+        grid_section("Figure 3: the published protocol from each trajectory's first step (superseded)",
+                     "results/classic_control_published_start0.csv", reps,
+                     "The rerun's first rows, every trajectory subsampled from step 0 (IQ-Learn's code) instead of from "
+                     "its own random step (the GAIL codes'): on Acrobot-v1 every algorithm that keeps every 20th step "
+                     "stays at -500.", anchors=False, plots=plots),
         grid_section("Figure 3: full trajectories, the second expert", "results/classic_control_second.csv", reps,
                      "Each env's second expert pool (`--second-expert`: PPO CartPole-v1, DQN Acrobot-v1, DQN "
                      "LunarLander-v3), N = 1 and 3.", anchors=False, plots=plots),

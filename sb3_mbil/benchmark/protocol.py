@@ -5,7 +5,9 @@
   handling. BC, EDM and RCAL keep every 20th step (EDM's code). IQ-Learn keeps every 20th step on CartPole and every
   5th on Acrobot and LunarLander (its scripts). AVRIL keeps full trajectories. DSFN's and ValueDICE's classic-control
   data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps as BC, each with
-  its true successor (s', a').
+  its true successor (s', a'). Each trajectory's subsampling starts at its own random step, as in the GAIL codes'
+  ``ExpertDataset`` (IQ-Learn's at step 0, as in its code): from step 0 the kept states of Acrobot-v1 sit at one phase
+  of the swing in every trajectory and BC never swings up.
 - ``published_next``: a control for ``published``: each kept step and its next step, both as labelled (s, a) pairs,
   so that BC sees the labels MBIL gets from the successors (s', a'); MBIL then also gets the next step's tuple.
 
@@ -28,12 +30,22 @@ PUBLISHED_EVERY: dict[str, int | dict[str, int]] = {
 }
 #: the default for algorithms not listed (MBIL and its variants): BC's rate
 DEFAULT_EVERY = 20
+#: where each trajectory's subsampling starts: "random" (its own step in [0, every), drawn with the run's seed: the
+#: GAIL codes' ExpertDataset) or 0 (IQ-Learn's code, whose random start is commented out). On Acrobot-v1 BC from
+#: step 0 scores -500 and from random steps -77 to -155, the published -94 to -159 (results/tuning/subsample_offset.csv)
+PUBLISHED_START: dict[str, int | str] = {"iq_learn": 0}
+DEFAULT_START = "random"
 
 
 def published_every(algo: str, env_id: str) -> int:
     """The step rate of ``algo`` on ``env_id`` in the published protocol (1 = full trajectories)."""
     rate = PUBLISHED_EVERY.get(algo, DEFAULT_EVERY)
     return int(rate.get(env_id, DEFAULT_EVERY)) if isinstance(rate, dict) else int(rate)
+
+
+def published_start(algo: str) -> int | str:
+    """Where ``algo``'s subsampling starts in each trajectory on the ``published`` protocol (0 or ``"random"``)."""
+    return PUBLISHED_START.get(algo, DEFAULT_START)
 
 
 def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, protocol: str = "full",
@@ -44,4 +56,5 @@ def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, p
     demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
     if protocol == "full":
         return demos
-    return demos.subsample(published_every(algo, env_id), with_next=protocol == "published_next")
+    return demos.subsample(published_every(algo, env_id), published_start(algo), with_next=protocol == "published_next",
+                           seed=seed)
