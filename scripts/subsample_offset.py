@@ -1,7 +1,7 @@
 """Issue 17: does where each trajectory's subsampling starts decide BC on the published protocol?
 
 BC with its zoo settings on every 20th step of N drawn trajectories, each trajectory starting at step 0 (our
-`published` protocol today, and IQ-Learn's code) or at its own random step in [0, 20) (the GAIL codes'
+`published` protocol before 457e3a9, and IQ-Learn's code) or at its own random step in [0, 20) (the GAIL codes'
 ExpertDataset), the same draws and seeds; one row per run appended to --csv.
 
     python scripts/subsample_offset.py --env Acrobot-v1 --n-trajectories 3 10 --seeds 100-102 \
@@ -31,13 +31,13 @@ def main(argv=None):
     from sb3_mbil.common.evaluation import evaluate
 
     commit = git_commit()
+    settings = tuned_settings("bc", a.env, {})
+    steps = int(float(settings.pop("n_timesteps")))
     for n in a.n_trajectories:
         for s in a.seeds:
             draw = load_demonstrations(a.env).sample(n, seed=s)
             for offset in (0, "random"):
                 data = draw.subsample(a.every, offset, seed=s)
-                settings = tuned_settings("bc", a.env, {})
-                steps = int(float(settings.pop("n_timesteps")))
                 model = ALGORITHMS["bc"]("MlpPolicy", a.env, expert_data=data, seed=s, **settings).learn(steps)
                 returns = evaluate(model, a.env, a.episodes, seed=10**6 + s)
                 row = {"env": a.env, "n_trajectories": n, "seed": s, "offset": offset, "every": a.every,
