@@ -45,7 +45,8 @@ def decay_to_gradient(model: Any, updates: int, every: int, weight_decay: float)
     while done <= updates:
         pairs = model.expert_pairs()
         policy.zero_grad(set_to_none=True)
-        loss = bc_loss(policy, policy.heads(pairs.observations), pairs.actions, model._bc_kind)
+        heads = (policy.raw_heads if model._bc_kind == "tanh_nll" else policy.heads)(pairs.observations)
+        loss = bc_loss(policy, heads, pairs.actions, model._bc_kind)
         loss.backward()
         row: dict[str, Any] = {"update": done, "bc_loss": float(loss)}
         for group in GROUPS:

@@ -336,6 +336,37 @@ def test_bounded_mean_stays_inside_the_action_bounds_and_is_saved(algo, data, tm
             make(algo, "CartPole-v1", data["CartPole-v1"], policy_kwargs={"bounded_mean": True})
 
 
+def test_bc_tanh_nll_is_the_squashed_gaussian_likelihood(data):
+    """``bc_loss="tanh_nll"``: -log pi(a|s) of a = center + half_range * tanh(u), u ~ N(raw mean, std), the same as
+    torch's transformed distribution inside the bounds, finite for actions at the bounds (clipped), and refused
+    without a bounded mean or by an algorithm that does not implement it."""
+    from torch.distributions import AffineTransform, Normal, TanhTransform, TransformedDistribution
+
+    from sb3_mbil.common.losses import bc_loss, tanh_gaussian_log_prob
+
+    model = make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss="tanh_nll", policy_kwargs={"bounded_mean": True})
+    pol = model.policy
+    obs = th.randn(64, 3)
+    actions = 1.9 * (2 * th.rand(64, 1) - 1)  # inside Pendulum's bounds [-2, 2]
+    with th.no_grad():
+        raw_mean, log_std = pol.raw_heads(obs)
+        ours = tanh_gaussian_log_prob(pol, (raw_mean, log_std), actions)
+        squashed = TransformedDistribution(Normal(raw_mean, log_std.exp()), [TanhTransform(), AffineTransform(0.0, 2.0)])
+        np.testing.assert_allclose(ours.numpy(), squashed.log_prob(actions).sum(1).numpy(), rtol=1e-4, atol=1e-4)
+        at_bounds = bc_loss(pol, (raw_mean, log_std), th.full((64, 1), 2.0), "tanh_nll")
+    assert th.isfinite(at_bounds)
+    before = float(bc_loss(pol, pol.raw_heads(model.expert_pairs().observations), model.expert_pairs().actions, "tanh_nll"))
+    model.learn(300)
+    after = float(bc_loss(pol, pol.raw_heads(model.expert_pairs().observations), model.expert_pairs().actions, "tanh_nll"))
+    assert after < before - 0.5
+    with pytest.raises(ValueError, match="bounded_mean=True"):
+        make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss="tanh_nll")
+    with pytest.raises(ValueError, match="bc_loss"):
+        make(MBIL, "Pendulum-v1", data["Pendulum-v1"], bc_loss="tanh_nll", policy_kwargs={"bounded_mean": True})
+    with pytest.raises(ValueError, match="Discrete"):
+        make(BC, "CartPole-v1", data["CartPole-v1"], bc_loss="tanh_nll")
+
+
 @pytest.mark.parametrize("algo", ALGOS)
 def test_training_continued_after_load_equals_training_continued_in_memory(algo, data, tmp_path):
     """Every torch state (networks, optimisers, an algorithm's own buffers) is in the zip."""

@@ -34,7 +34,9 @@ class BC(OfflineAlgorithm):
     :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`)
     :param learning_rate: Adam learning rate (constant or schedule)
     :param batch_size: minibatch size
-    :param bc_loss: ``"auto"`` (NLL for Discrete, MSE for Box), ``"nll"`` or ``"mse"``
+    :param bc_loss: ``"auto"`` (NLL for Discrete, MSE for Box), ``"nll"``, ``"mse"`` or ``"tanh_nll"`` (Box with
+        ``policy_kwargs=dict(bounded_mean=True)``: the NLL of the tanh-squashed Gaussian, ValueDICE's and Li et al.'s
+        BC, actions within 1e-4 of a bound clipped)
     :param weight_decay: Adam weight decay of the policy
     :param logit_penalty: (Discrete) weight lambda of the squared logits (0: none)
     :param observation_noise: sigma, std of the Gaussian noise on each minibatch's expert states in units of the expert
@@ -78,7 +80,8 @@ class BC(OfflineAlgorithm):
 
     def _check_hyperparameters(self) -> None:
         super()._check_hyperparameters()
-        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space,
+                                        bounded_mean=bool((self.policy_kwargs or {}).get("bounded_mean", False)))
         self.logit_penalty = check_logit_penalty(self.logit_penalty, self.action_space)
         self.observation_noise = check_real("observation_noise", self.observation_noise, low=0.0)
 
@@ -97,7 +100,8 @@ class BC(OfflineAlgorithm):
             if self._obs_scale is None:
                 self._obs_scale = pairs.observations.flatten(1).std(0, unbiased=False).view_as(observations[0])
             observations = observations + self.observation_noise * self._obs_scale * th.randn_like(observations)
-        heads = self.policy.heads(observations)
+        # the tanh-squashed Gaussian's likelihood is written in its pre-squash parameters
+        heads = self.policy.raw_heads(observations) if self._bc_kind == "tanh_nll" else self.policy.heads(observations)
 
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)

@@ -154,7 +154,7 @@ class MBIL(OfflineAlgorithm):
         self.beta = check_real("beta", self.beta, low=0.0)
         if self.alpha == 0 and self.beta == 0:
             raise ValueError("alpha, beta: expected at least one of them > 0, found both 0")
-        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space, allowed=("nll", "mse"))
         for name in ("flow_transforms", "flow_batch_size", "flow_max_steps", "flow_eval_every", "flow_patience"):
             setattr(self, name, check_int(name, getattr(self, name), low=1))
         self.flow_embed_dim = check_int("flow_embed_dim", self.flow_embed_dim, low=0)

@@ -223,7 +223,7 @@ class MBILC(OfflineAlgorithm):
         self.beta = check_real("beta", self.beta, low=0.0)
         if self.alpha == 0 and self.alpha_model == 0 and self.beta == 0:
             raise ValueError("alpha, alpha_model, beta: expected at least one of them > 0, found all 0")
-        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space)
+        self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space, allowed=("nll", "mse"))
         self.divergence = check_choice("divergence", self.divergence, DIVERGENCES)
         self.logit_penalty = check_logit_penalty(self.logit_penalty, self.action_space)
         discrete = isinstance(self.action_space, spaces.Discrete)
