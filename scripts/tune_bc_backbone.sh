@@ -61,3 +61,12 @@ python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
 # labels do to the return.
 python scripts/run_curves.py --envs Walker2d-v4 $COMMON --variants "{
   \"ccil_residual\": [\"mbil_c\", {\"alpha\": 0.0, \"alpha_model\": 1.0, \"model_labels\": \"corrective\", \"residual_transition\": true}]}"
+# Li et al.'s BC literally (their figure: one complete trajectory, BC at about 0.61 of their Walker2d expert with weight
+# decay 1e-3 at 5e5 updates, a peak of 5830 and a collapse without it): ValueDICE's actor, a tanh-squashed Gaussian
+# (bc_loss="tanh_nll"), learning rate 1e-5, batch 256, 5e5 updates, against the zoo's 5e4 updates at 1e-3 decayed.
+# Tuning seed 100 first (about 25 min a run here); python scripts/curve_summary.py results/tuning/bc_li.csv \
+#   results/tuning/bc_backbone.csv --envs Walker2d-v4 --last 3 --paired-against bc_tanh_lin
+LI='"bc_loss": "tanh_nll", "learning_rate": 1e-05'
+python scripts/run_curves.py --envs Walker2d-v4 --seeds 100 --updates 500000 --eval-every 25000 --episodes 10 \
+  --csv results/tuning/bc_li.csv --local --variants "{
+  \"bc_li\": [\"bc\", {$LI, \"weight_decay\": 0.001, $TANH}], \"bc_li_wd0\": [\"bc\", {$LI, \"weight_decay\": 0.0, $TANH}]}"
