@@ -31,7 +31,7 @@ def decay_to_gradient(model: Any, updates: int, every: int, weight_decay: float)
     """Train ``model`` (an algorithm of ``sb3_mbil.ALGORITHMS`` with a BC term) for ``updates`` gradient steps and,
     every ``every`` steps, measure on all expert pairs: the behaviour-cloning loss, |grad L| and |lambda theta| per
     group of the policy's parameters (``lambda`` = ``weight_decay``, whether or not the model trains with it)."""
-    from sb3_mbil.common.losses import bc_loss
+    from sb3_mbil.common.losses import bc_heads, bc_loss
 
     policy = model.policy
     named = [(n, p) for n, p in policy.named_parameters() if p.requires_grad]
@@ -45,8 +45,7 @@ def decay_to_gradient(model: Any, updates: int, every: int, weight_decay: float)
     while done <= updates:
         pairs = model.expert_pairs()
         policy.zero_grad(set_to_none=True)
-        heads = (policy.raw_heads if model._bc_kind == "tanh_nll" else policy.heads)(pairs.observations)
-        loss = bc_loss(policy, heads, pairs.actions, model._bc_kind)
+        loss = bc_loss(policy, bc_heads(policy, pairs.observations, model._bc_kind), pairs.actions, model._bc_kind)
         loss.backward()
         row: dict[str, Any] = {"update": done, "bc_loss": float(loss)}
         for group in GROUPS:

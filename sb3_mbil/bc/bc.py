@@ -8,7 +8,7 @@ import torch as th
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
-from sb3_mbil.common.losses import bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
+from sb3_mbil.common.losses import bc_heads, bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
 from sb3_mbil.common.validation import check_real
@@ -100,8 +100,7 @@ class BC(OfflineAlgorithm):
             if self._obs_scale is None:
                 self._obs_scale = pairs.observations.flatten(1).std(0, unbiased=False).view_as(observations[0])
             observations = observations + self.observation_noise * self._obs_scale * th.randn_like(observations)
-        # the tanh-squashed Gaussian's likelihood is written in its pre-squash parameters
-        heads = self.policy.raw_heads(observations) if self._bc_kind == "tanh_nll" else self.policy.heads(observations)
+        heads = bc_heads(self.policy, observations, self._bc_kind)
 
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)

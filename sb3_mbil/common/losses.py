@@ -44,6 +44,12 @@ def tanh_gaussian_log_prob(policy: ImitationPolicy, raw_heads: Sequence[th.Tenso
     return (-0.5 * z.pow(2) - log_std - 0.5 * LOG_2PI - log_jacobian).sum(dim=1)
 
 
+def bc_heads(policy: ImitationPolicy, observations: th.Tensor, kind: str) -> tuple[th.Tensor, ...]:
+    """The policy outputs :func:`bc_loss` of ``kind`` reads: ``policy.raw_heads(s)`` for ``"tanh_nll"`` (the squashed
+    Gaussian's likelihood is written in its pre-squash parameters), ``policy.heads(s)`` otherwise."""
+    return policy.raw_heads(observations) if kind == "tanh_nll" else policy.heads(observations)
+
+
 def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Tensor, kind: str,
             log_prob: th.Tensor | None = None) -> th.Tensor:
     """L_BC from the policy's outputs at the expert states (``policy.heads(s)``).
