@@ -275,6 +275,34 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     assert expert.source == "zoo:dqn seed=0"
 
 
+def test_a_late_learning_rate_takes_over_at_its_checkpoint(tmp_path, monkeypatch):
+    """``late_learning_rate=(steps, lr)``: the run stops at the checkpoint of ``steps`` and the training continues from
+    it at ``lr``; a session that ends between the two runs does not take the first run's model for the end."""
+    import json
+
+    from sb3_mbil.experts import generate
+
+    monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
+    kwargs = dict(seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
+    with pytest.raises(ValueError, match="late_learning_rate: expected a step count that is a multiple of save_freq"):
+        generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(150, 1e-5), **kwargs)
+    original = generate._run_logged
+    monkeypatch.setattr(generate, "_run_logged", lambda *a: (original(*a), exec("raise KeyboardInterrupt"))[0])
+    with pytest.raises(KeyboardInterrupt):  # the session ends right after the first run
+        generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(200, 1e-5), **kwargs)
+    monkeypatch.setattr(generate, "_run_logged", original)
+    folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400"
+    run1, run2 = (folder / "dqn" / f"CartPole-v1_{i}" for i in (1, 2))
+    assert (run1 / "CartPole-v1.zip").is_file() and (run1 / "rl_model_replay_buffer_200_steps.pkl").is_file()
+    assert not run2.exists()
+    generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(200, 1e-5), **kwargs)
+    progress = json.loads((folder / "progress.json").read_text())
+    assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200}
+    first, second = DQN.load(run1 / "CartPole-v1.zip"), DQN.load(run2 / "CartPole-v1.zip")
+    assert first.policy.optimizer.param_groups[0]["lr"] != 1e-5
+    assert second.policy.optimizer.param_groups[0]["lr"] == 1e-5  # it trained at the late rate
+
+
 def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path, monkeypatch):
     """Machines that start with an empty cache: the newest checkpoint, exported without its replay buffer to a folder
     that can be committed, is where the next machine's training continues (on a buffer its own policy refills)."""

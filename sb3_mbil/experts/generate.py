@@ -63,6 +63,10 @@ class ExpertSpec:
     #: training steps at most (default: the zoo's ``n_timesteps``); above the zoo's where a SAC agent that meets the
     #: return still falls in more episodes than ``min_full_fraction`` allows when the zoo's budget runs out
     max_timesteps: int | None = None
+    #: ``(steps, learning_rate)``: from this many training steps on (a multiple of ``save_freq``), the training
+    #: continues at this learning rate instead of the zoo's. For a SAC agent whose evaluations still swing widely
+    #: at the zoo's rate (Ant-v4: 1 784 to 3 866 over 400 000 steps at 3e-4)
+    late_learning_rate: tuple[int, float] | None = None
 
 
 # The paper's experts (DQN CartPole, A2C Acrobot, PPO LunarLander), from the RL Zoo.
@@ -78,7 +82,7 @@ EXPERTS: dict[str, ExpertSpec] = {
     "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=80,
                               min_full_fraction=0.95, max_timesteps=2_000_000),
     "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=80,
-                         min_full_fraction=0.95, max_timesteps=2_000_000),
+                         min_full_fraction=0.95, max_timesteps=2_000_000, late_learning_rate=(1_350_000, 1e-4)),
 }
 
 
@@ -209,7 +213,7 @@ def zoo_run_folder(env_id: str, algo: str, seed: int, n_timesteps: int | None = 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
                      verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None,
                      min_full_fraction: float = 0.0, stop_eval_episodes: int = 20,
-                     max_timesteps: int | None = None) -> Expert:
+                     max_timesteps: int | None = None, late_learning_rate: tuple[int, float] | None = None) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
@@ -226,12 +230,18 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         instead of the zoo's best-return checkpoint.
     :param max_timesteps: the step budget of a cached run (``n_timesteps`` names a separate run instead); default
         the zoo's ``n_timesteps``
+    :param late_learning_rate: ``(steps, learning_rate)``: the runs that continue from ``steps`` on (a multiple of
+        ``save_freq``) pass ``learning_rate`` to rl_zoo3 (``--hyperparams learning_rate:...``); a run that would cross
+        ``steps`` stops there, at a checkpoint, and the next one continues at the new rate
     :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
         that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)
     """
     folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
     runs_dir = folder / algo
     progress_file = folder / "progress.json"
+    if late_learning_rate is not None and (not save_freq or late_learning_rate[0] % save_freq):
+        raise ValueError(f"late_learning_rate: expected a step count that is a multiple of save_freq ({save_freq}), "
+                         f"found {late_learning_rate[0]}")
     while not _zoo_finished(runs_dir, env_id):
         budget = n_timesteps or max_timesteps or _zoo_budget(env_id, algo)
         eval_freq = max(budget // n_evaluations, 1)
@@ -254,9 +264,17 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         remaining = budget - done
         if remaining <= 0:
             break
-        if n_timesteps is not None or resume is not None:
-            cmd += ["-n", str(remaining)]
         next_run = f"{env_id}_{_run_ids(runs_dir, env_id)[-1] + 1 if _run_ids(runs_dir, env_id) else 1}"
+        late_lr, stops_at_switch = None, False
+        if late_learning_rate is not None:
+            switch, rate = late_learning_rate
+            if done >= switch:
+                late_lr = rate
+            elif done + remaining > switch:  # stop at the switch (a checkpoint); the next run continues at the rate
+                remaining, stops_at_switch = switch - done, True
+                progress.setdefault("stopped_at_switch", []).append(next_run)  # its final model is not the end
+        if n_timesteps is not None or resume is not None or stops_at_switch:
+            cmd += ["-n", str(remaining)]
         callbacks = []
         if save_freq:  # model, replay buffer and VecNormalize statistics, whole or absent, the newest two kept
             callbacks.append({"sb3_mbil.common.callbacks.ResumableCheckpoint": {
@@ -276,6 +294,8 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
             else:  # a carried checkpoint (import_zoo_checkpoint): the zoo's warm-up refills a fresh buffer first
                 logger.warning("%s has no replay buffer: training continues on a fresh one, after the zoo's "
                                "learning_starts steps of random actions", resume[0])
+        if late_lr is not None:
+            hyperparams.append(f"learning_rate:{late_lr!r}")
         if hyperparams:
             cmd += ["--hyperparams", *hyperparams]
         progress["steps_before"][next_run] = done
@@ -330,14 +350,15 @@ def _run_ids(runs_dir: Path, env_id: str) -> list[int]:
 
 
 def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
-    """The latest run saved its final model (budget used up, or stopped at the return threshold) and acceptance
-    did not refuse that model while budget remained (:func:`refuse_zoo_run`)."""
+    """The latest run saved its final model (budget used up, or stopped at the return threshold), acceptance
+    did not refuse that model while budget remained (:func:`refuse_zoo_run`), and the run did not stop at a
+    ``late_learning_rate`` switch."""
     ids = _run_ids(runs_dir, env_id)
     if not ids or not (runs_dir / f"{env_id}_{ids[-1]}" / f"{env_id}.zip").is_file():
         return False
     progress_file = runs_dir.parent / "progress.json"
-    refused = json.loads(progress_file.read_text()).get("refused", []) if progress_file.is_file() else []
-    return f"{env_id}_{ids[-1]}" not in refused
+    progress = json.loads(progress_file.read_text()) if progress_file.is_file() else {}
+    return f"{env_id}_{ids[-1]}" not in progress.get("refused", []) + progress.get("stopped_at_switch", [])
 
 
 def refuse_zoo_run(env_id: str, algo: str, seed: int, n_timesteps: int | None = None,
@@ -610,7 +631,8 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
         logger.warning("no return threshold for %s: the expert is accepted whatever it scores (pass min_return)", env_id)
     zoo_kwargs = {"save_freq": spec.save_freq, "stop_at_return": spec.stop_at_return,
                   "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction,
-                  "stop_eval_episodes": n_eval_episodes, "max_timesteps": spec.max_timesteps} \
+                  "stop_eval_episodes": n_eval_episodes, "max_timesteps": spec.max_timesteps,
+                  "late_learning_rate": spec.late_learning_rate} \
         if spec and spec.algo == algo else {}
     min_full = min_full_fraction if min_full_fraction is not None else (
         spec.min_full_fraction if spec and spec.algo == algo else 0.0)
