@@ -34,6 +34,7 @@ def test_a_pair_of_rows_from_the_same_draw_and_evaluation(tmp_path):
     assert all(r["env"] == "CartPole-v1" and r["n_episodes"] == 3 and r["commit"] == "test" for r in rows)
     assert rows[0]["updates"] == rows[1]["updates"] == 10_000  # both at our BC's zoo budget
     assert "('hidden', [64, 64])" in rows[0]["settings"] and "('batch_size', 64)" in rows[0]["settings"]
+    assert "('activation', 'elu')" in rows[0]["settings"]  # bc.yml's classic-control ELU, passed to the peer
     assert rows[0]["seconds_per_update"] == 0.5 / 10_000
     peer = TorchScriptPolicy(tmp_path / "CartPole-v1-N1-seed0" / "policy.pt", gym.make("CartPole-v1").action_space)
     again = evaluate(peer, "CartPole-v1", 3, seed=1_000_000, n_envs=3)
@@ -47,6 +48,7 @@ def test_matched_settings_carry_the_zoos_learning_rate_schedule():
     assert hopper["learning_rate"] == pytest.approx(1e-3) and hopper["linear_decay"] and hopper["standardize"]
     assert matched_settings("CartPole-v1")["linear_decay"] is False
     assert matched_settings("CartPole-v1")["weight_decay"] == pytest.approx(1e-3)  # bc.yml: both libraries decay
+    assert matched_settings("CartPole-v1")["activation"] == "elu" and hopper["activation"] == "relu"
 
 
 def test_peers_section_pairs_each_library_with_ours_on_the_same_seeds(tmp_path):

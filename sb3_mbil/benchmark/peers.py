@@ -79,7 +79,13 @@ def matched_settings(env_id: str) -> dict[str, Any]:
     kwargs = s.get("policy_kwargs") or {}
     lr = s.get("learning_rate", 1e-3)
     linear_decay = callable(lr)  # rl_zoo3's "lin_<lr>": d3rlpy gets the same linear decay (d3rlpy_train.py)
-    return {"hidden": list(kwargs.get("net_arch", [64, 64])), "batch_size": int(s.get("batch_size", 64)),
+    activation_fn = kwargs.get("activation_fn", th.nn.ReLU)
+    activation = {th.nn.ReLU: "relu", th.nn.ELU: "elu"}.get(activation_fn)
+    if activation is None:
+        raise ValueError(f"policy_kwargs.activation_fn of bc's zoo entry for {env_id}: expected nn.ReLU or nn.ELU (the "
+                         f"activations d3rlpy_train.py matches), found {activation_fn!r}")
+    return {"hidden": list(kwargs.get("net_arch", [64, 64])), "activation": activation,
+            "batch_size": int(s.get("batch_size", 64)),
             "learning_rate": float(lr(1.0) if linear_decay else lr), "linear_decay": linear_decay,
             "weight_decay": float(s.get("weight_decay", 0.0)),
             "steps": int(float(s["n_timesteps"])), "standardize": bool(kwargs.get("normalize_observations", False))}
@@ -105,7 +111,7 @@ def run_pair(env_id: str, n_trajectories: int, seed: int, python: str, workdir: 
     run_dir = Path(workdir) / f"{env_id}-N{n_trajectories}-seed{seed}"
     data = export_draw(demos, run_dir / "draw.npz")
     cmd = [str(python), str(trainer), "--data", str(data), "--out-dir", str(run_dir), "--hidden",
-           *map(str, shared["hidden"]), "--batch-size", str(shared["batch_size"]), "--learning-rate",
+           *map(str, shared["hidden"]), "--activation", shared["activation"], "--batch-size", str(shared["batch_size"]), "--learning-rate",
            str(shared["learning_rate"]), "--steps", str(shared["steps"]), "--seed", str(seed)]
     cmd += ["--discrete"] if discrete else []
     cmd += ["--standardize"] if shared["standardize"] else []

@@ -10,6 +10,7 @@ wall time of the updates alone, d3rlpy's version, the settings).
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import time
@@ -19,12 +20,31 @@ import numpy as np
 import torch
 
 
+@dataclasses.dataclass()
+class VectorEncoderFactory(d3rlpy.models.encoders.VectorEncoderFactory):
+    """d3rlpy's vector encoder, with ELU (our classic-control policies' activation, which d3rlpy does not offer) as a
+    choice besides its own."""
+
+    def create(self, observation_shape):
+        if self.activation != "elu":
+            return super().create(observation_shape)
+        from d3rlpy.models.torch.encoders import VectorEncoder
+
+        return VectorEncoder(observation_shape=tuple(observation_shape), hidden_units=self.hidden_units,
+                             activation=torch.nn.ELU())
+
+    @staticmethod
+    def get_type() -> str:
+        return "vector_with_elu"
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True)
     p.add_argument("--out-dir", required=True)
     p.add_argument("--discrete", action="store_true")
     p.add_argument("--hidden", nargs="+", type=int, default=[64, 64])
+    p.add_argument("--activation", choices=("relu", "elu"), default="relu", help="the hidden layers' activation")
     p.add_argument("--batch-size", type=int, default=64)
     p.add_argument("--learning-rate", type=float, default=1e-3)
     p.add_argument("--steps", type=int, default=10_000)
@@ -41,13 +61,11 @@ def main():
     space = d3rlpy.constants.ActionSpace.DISCRETE if a.discrete else d3rlpy.constants.ActionSpace.CONTINUOUS
     dataset = d3rlpy.dataset.MDPDataset(**arrays, action_space=space,
                                         action_size=int(arrays["actions"].max()) + 1 if a.discrete else None)
-    encoder = d3rlpy.models.encoders.VectorEncoderFactory(hidden_units=a.hidden, activation="relu")
+    encoder = VectorEncoderFactory(hidden_units=a.hidden, activation=a.activation)
     scaler = d3rlpy.preprocessing.StandardObservationScaler() if a.standardize else None
     config_class = d3rlpy.algos.DiscreteBCConfig if a.discrete else d3rlpy.algos.BCConfig
     scheduler = None
     if a.linear_decay:
-        import dataclasses
-
         from torch.optim.lr_scheduler import LinearLR
 
         @dataclasses.dataclass()
@@ -76,7 +94,7 @@ def main():
     os.replace(tmp, os.path.join(a.out_dir, "policy.pt"))
     with open(os.path.join(a.out_dir, "fit.json"), "w") as f:
         json.dump({"fit_seconds": fit_seconds, "steps": a.steps, "d3rlpy": d3rlpy.__version__,
-                   "algo": config_class.__name__, "hidden": a.hidden, "batch_size": a.batch_size,
+                   "algo": config_class.__name__, "hidden": a.hidden, "activation": a.activation, "batch_size": a.batch_size,
                    "learning_rate": a.learning_rate, "weight_decay": a.weight_decay, "linear_decay": a.linear_decay,
                    "standardize": a.standardize, "seed": a.seed}, f)
 

@@ -23,6 +23,7 @@ p = argparse.ArgumentParser()
 for flag in ("--data", "--out-dir", "--batch-size", "--learning-rate", "--steps", "--seed"):
     p.add_argument(flag)
 p.add_argument("--hidden", nargs="+")
+p.add_argument("--activation", choices=("relu", "elu"))
 p.add_argument("--discrete", action="store_true")
 p.add_argument("--standardize", action="store_true")
 p.add_argument("--linear-decay", action="store_true")
