@@ -202,10 +202,9 @@ def curves_section(title: str, path: str, intro: str = "", plots: bool = False) 
                       curve_table(rows, pool_experts(rows), last=10), "", paired_table(rows, "bc", last=10)]) + "\n"
 
 
-def peers_section(path: str) -> str:
+def peers_section(path: str, title: str = "## Peers: d3rlpy's BC beside ours", intro: str = "") -> str:
     from sb3_mbil.benchmark.results import read_result_rows
 
-    title = "## Peers: d3rlpy's BC beside ours"
     if not os.path.isfile(path):
         return f"{title}\n\nNo results yet (`{path}` does not exist; `python scripts/peers/compare_d3rlpy.py`).\n"
     rows = read_result_rows(path)
@@ -213,7 +212,7 @@ def peers_section(path: str) -> str:
     for r in rows:
         g[(r["env"], int(r["n_trajectories"]))][r["library"]].append(
             (int(r["seed"]), float(r["mean_return"]), float(r["seconds_per_update"])))
-    lines = [title, "", f"From `{path}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}): the same draws, "
+    lines = [title, "", *([intro, ""] if intro else []), f"From `{path}` (commits: {', '.join(sorted({r['commit'] for r in rows}))}): the same draws, "
              "the same evaluation episodes, our BC's zoo settings for both; the speed ratio is d3rlpy's time per update "
              "over ours, measured in the same run; the paired difference is the library's return minus ours on the "
              "same seeds, with its 95% interval (Student's t over seeds) and the seeds where it is above ours.", "",
@@ -292,5 +291,8 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                        "The earlier runs: a linear-output Gaussian mean and a constant learning rate, the previous "
                        "expert pools of Walker2d-v4 and Ant-v4.", plots=plots),
         peers_section("results/peers.csv"),
+        peers_section("results/peers_relu.csv", "## Peers with ReLU hidden layers: classic control",
+                      "The earlier classic-control pairs: both libraries with ReLU hidden layers, before our BC's zoo "
+                      "entries moved to ELU (d3rlpy offers no ELU; `scripts/peers/d3rlpy_train.py` adds it)."),
     ]
     return "\n".join(s for s in sections if s) + "\n"
