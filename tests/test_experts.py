@@ -419,3 +419,32 @@ def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monk
     # a run that used its whole budget cannot continue: the caller moves to the next seed
     generate.train_zoo_expert("CartPole-v1", "dqn", seed=1, n_timesteps=200, save_freq=100, n_evaluations=2)
     assert not generate.refuse_zoo_run("CartPole-v1", "dqn", 1, 200)
+
+
+def test_termination_causes_name_the_failed_health_check():
+    """Why episodes end: the torso's height above or below its healthy range (Ant-v4's expert jumps out of it), or its
+    angle; read from the last observation, checked against the env's own health check on real Hopper-v4 falls."""
+    from sb3_mbil.benchmark.falls import termination_cause, termination_causes
+    from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
+
+    ant, hopper = gym.make("Ant-v4"), gym.make("Hopper-v4")
+    obs = np.zeros(ant.observation_space.shape)
+    assert [termination_cause(ant, np.r_[z, obs[1:]]) for z in (1.05, 0.1, 0.5)] == ["height above", "height below",
+                                                                                      "other"]
+    assert termination_cause(hopper, np.r_[1.2, 0.3, np.zeros(9)]) == "angle"
+    assert termination_cause(gym.make("HalfCheetah-v4"), np.zeros(17)) == "other"
+    rng, trajs = np.random.default_rng(0), []
+    for ep in range(3):  # random actions: Hopper falls within a few dozen steps
+        o, _ = hopper.reset(seed=ep)
+        observations, actions, terminated = [o], [], False
+        while not terminated:
+            a = rng.uniform(-1, 1, 3)
+            o, _, terminated, truncated, _ = hopper.step(a)
+            observations.append(o)
+            actions.append(a)
+            assert not truncated
+        assert not hopper.unwrapped.is_healthy
+        trajs.append(Trajectory(np.array(observations), np.array(actions), terminated=True))
+    trajs.append(Trajectory(np.array(observations[:3]), np.array(actions[:2]), truncated=True))
+    counts = termination_causes(Demonstrations(trajs), "Hopper-v4")
+    assert sum(counts.values()) == 4 and counts["time limit"] == 1 and "other" not in counts

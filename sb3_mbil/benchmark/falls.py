@@ -118,3 +118,33 @@ def fall_table(rows: list[dict]) -> str:
                      + (f"{np.median(left):.0f} ({len(left)})" if left else "never (0)") + " | "
                      + (f"{np.median(gap):.0f}" if gap else "-") + f" | {float(rs[0]['threshold']):.3f} |")
     return "\n".join(lines)
+
+
+def termination_cause(env: gym.Env, observation: np.ndarray) -> str:
+    """Which of a MuJoCo env's health checks a terminated episode's last observation fails (gymnasium's v4 locomotion
+    envs, whose observation starts with the torso's height, then, for Hopper and Walker2d, its angle):
+    ``"height above"``, ``"height below"``, ``"angle"`` or ``"other"``."""
+    env = env.unwrapped
+    z_range = getattr(env, "_healthy_z_range", None)
+    if z_range is None or not getattr(env, "_exclude_current_positions_from_observation", False):
+        return "other"
+    z = float(observation[0])
+    if z > z_range[1]:
+        return "height above"
+    if z < z_range[0]:
+        return "height below"
+    angle_range = getattr(env, "_healthy_angle_range", None)
+    if angle_range is not None and not angle_range[0] < float(observation[1]) < angle_range[1]:
+        return "angle"
+    return "other"
+
+
+def termination_causes(demos, env_id: str) -> dict[str, int]:
+    """How many episodes of ``demos`` reached the time limit, and how many ended on each failed health check."""
+    env = gym.make(env_id)
+    counts: dict[str, int] = {}
+    for traj in demos:
+        cause = termination_cause(env, traj.observations[-1]) if traj.terminated else "time limit"
+        counts[cause] = counts.get(cause, 0) + 1
+    env.close()
+    return counts
