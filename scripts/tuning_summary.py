@@ -56,6 +56,30 @@ def main(paths):
             se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
             print(f"| {setting} | {len(seeds)} | {np.mean([runs[setting][s] for s in seeds]):.1f} | {d.mean():.1f} +- {se:.1f} | "
                   f"{int((d < 0).sum())} of {len(d)} |")
+    pooled(by_seed, expert)
+
+
+def pooled(by_seed: dict, expert: dict) -> None:
+    """Every setting against the best normalised mean, paired over every draw (env, N, seed) the two share: where
+    cells have too few seeds for a paired table of their own, the pooled difference still says whether a setting
+    is above by more than two standard errors (the tuning rule of docs/benchmarks_notes.md)."""
+    norm: dict[str, dict] = {}
+    for (setting, env, n), seeds in by_seed.items():
+        for seed, ret in seeds.items():
+            norm.setdefault(setting, {})[(env, n, seed)] = (ret - RANDOM_RETURN[env]) / (expert[env] - RANDOM_RETURN[env])
+    if len(norm) < 2:
+        return
+    best = max(norm, key=lambda k: np.mean(list(norm[k].values())))
+    print(f"\nPooled over every shared draw (env, N, seed), normalised returns, paired against the best, {best} "
+          "(difference mean +- standard error; on how many draws below):\n")
+    print("| setting | draws | normalised mean | difference | below |")
+    print("|---|---|---|---|---|")
+    for setting in sorted(norm):
+        keys = sorted(set(norm[setting]) & set(norm[best]))
+        d = np.array([norm[setting][k] - norm[best][k] for k in keys])
+        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+        print(f"| {setting} | {len(keys)} | {np.mean([norm[setting][k] for k in keys]):.3f} | {d.mean():+.3f} +- "
+              f"{se:.3f} | {int((d < 0).sum())} of {len(d)} |")
 
 
 if __name__ == "__main__":
