@@ -48,14 +48,7 @@ def main(paths):
         best = max(runs, key=lambda k: np.mean(list(runs[k].values())))
         print(f"\n{env} N={n}, paired against the best mean, {best} (difference of mean returns on the shared seeds, "
               "mean +- standard error; on how many seeds below):\n")
-        print("| setting | seeds | mean return | difference | below |")
-        print("|---|---|---|---|---|")
-        for setting in sorted(runs):
-            seeds = sorted(set(runs[setting]) & set(runs[best]))
-            d = np.array([runs[setting][s] - runs[best][s] for s in seeds])
-            se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
-            print(f"| {setting} | {len(seeds)} | {np.mean([runs[setting][s] for s in seeds]):.1f} | {d.mean():.1f} +- {se:.1f} | "
-                  f"{int((d < 0).sum())} of {len(d)} |")
+        paired_rows(runs, best, "seeds", "mean return", digits=1)
     pooled(by_seed, expert)
 
 
@@ -72,14 +65,20 @@ def pooled(by_seed: dict, expert: dict) -> None:
     best = max(norm, key=lambda k: np.mean(list(norm[k].values())))
     print(f"\nPooled over every shared draw (env, N, seed), normalised returns, paired against the best, {best} "
           "(difference mean +- standard error; on how many draws below):\n")
-    print("| setting | draws | normalised mean | difference | below |")
+    paired_rows(norm, best, "draws", "normalised mean", digits=3)
+
+
+def paired_rows(values: dict[str, dict], best: str, unit: str, mean_name: str, digits: int) -> None:
+    """A markdown table of every setting against ``best`` on the keys (seeds or draws) the two share: mean, mean
+    difference +- standard error, and on how many keys the setting is below."""
+    print(f"| setting | {unit} | {mean_name} | difference | below |")
     print("|---|---|---|---|---|")
-    for setting in sorted(norm):
-        keys = sorted(set(norm[setting]) & set(norm[best]))
-        d = np.array([norm[setting][k] - norm[best][k] for k in keys])
+    for setting in sorted(values):
+        keys = sorted(set(values[setting]) & set(values[best]))
+        d = np.array([values[setting][k] - values[best][k] for k in keys])
         se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
-        print(f"| {setting} | {len(keys)} | {np.mean([norm[setting][k] for k in keys]):.3f} | {d.mean():+.3f} +- "
-              f"{se:.3f} | {int((d < 0).sum())} of {len(d)} |")
+        print(f"| {setting} | {len(keys)} | {np.mean([values[setting][k] for k in keys]):.{digits}f} | "
+              f"{d.mean():+.{digits}f} +- {se:.{digits}f} | {int((d < 0).sum())} of {len(d)} |")
 
 
 if __name__ == "__main__":
