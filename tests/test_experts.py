@@ -448,3 +448,19 @@ def test_termination_causes_name_the_failed_health_check():
     trajs.append(Trajectory(np.array(observations[:3]), np.array(actions[:2]), truncated=True))
     counts = termination_causes(Demonstrations(trajs), "Hopper-v4")
     assert sum(counts.values()) == 4 and counts["time limit"] == 1 and "other" not in counts
+
+
+def test_expert_falls_command_line_counts_the_causes(tmp_path):
+    """scripts/expert_falls.py on a real saved SAC model: an untrained Hopper-v4 falls at once, and the causes cover
+    every episode."""
+    import json
+
+    from stable_baselines3 import SAC
+
+    SAC("MlpPolicy", "Hopper-v4", seed=0, device="cpu").save(tmp_path / "hopper.zip")
+    out = subprocess.run([sys.executable, "scripts/expert_falls.py", "--env", "Hopper-v4", "--model",
+                          str(tmp_path / "hopper.zip"), "--episodes", "3"], capture_output=True, text=True,
+                         cwd=os.path.dirname(os.path.dirname(__file__)))
+    assert out.returncode == 0, out.stderr[-2000:]
+    report = json.loads(out.stdout.strip().splitlines()[-1])
+    assert sum(report["causes"].values()) == 3 == len(report["lengths"]) and "time limit" not in report["causes"]
