@@ -43,12 +43,8 @@ def main(paths):
               + f" | {np.mean(norm):.3f} |")
     for env, n in cells:
         runs = {k[0]: v for k, v in by_seed.items() if k[1:] == (env, n) and len(v) >= PAIRED_MIN_SEEDS}
-        if len(runs) < 2:
-            continue
-        best = max(runs, key=lambda k: np.mean(list(runs[k].values())))
-        print(f"\n{env} N={n}, paired against the best mean, {best} (difference of mean returns on the shared seeds, "
-              "mean +- standard error; on how many seeds below):\n")
-        paired_rows(runs, best, "seeds", "mean return", digits=1)
+        paired_table(runs, f"{env} N={n}, paired against the best mean, {{best}} (difference of mean returns on the "
+                     "shared seeds, mean +- standard error; on how many seeds below):", "seeds", "mean return", digits=1)
     pooled(by_seed, expert)
 
 
@@ -60,17 +56,19 @@ def pooled(by_seed: dict, expert: dict) -> None:
     for (setting, env, n), seeds in by_seed.items():
         for seed, ret in seeds.items():
             norm.setdefault(setting, {})[(env, n, seed)] = (ret - RANDOM_RETURN[env]) / (expert[env] - RANDOM_RETURN[env])
-    if len(norm) < 2:
+    paired_table(norm, "Pooled over every shared draw (env, N, seed), normalised returns, paired against the best, "
+                 "{best} (difference mean +- standard error; on how many draws below):", "draws", "normalised mean",
+                 digits=3)
+
+
+def paired_table(values: dict[str, dict], title: str, unit: str, mean_name: str, digits: int) -> None:
+    """With two settings or more: ``title`` (``{best}`` names the setting of the best mean) and a markdown table of
+    every setting against the best on the keys (seeds or draws) the two share: mean, mean difference +- standard
+    error, and on how many keys the setting is below."""
+    if len(values) < 2:
         return
-    best = max(norm, key=lambda k: np.mean(list(norm[k].values())))
-    print(f"\nPooled over every shared draw (env, N, seed), normalised returns, paired against the best, {best} "
-          "(difference mean +- standard error; on how many draws below):\n")
-    paired_rows(norm, best, "draws", "normalised mean", digits=3)
-
-
-def paired_rows(values: dict[str, dict], best: str, unit: str, mean_name: str, digits: int) -> None:
-    """A markdown table of every setting against ``best`` on the keys (seeds or draws) the two share: mean, mean
-    difference +- standard error, and on how many keys the setting is below."""
+    best = max(values, key=lambda k: np.mean(list(values[k].values())))
+    print("\n" + title.format(best=best) + "\n")
     print(f"| setting | {unit} | {mean_name} | difference | below |")
     print("|---|---|---|---|---|")
     for setting in sorted(values):
