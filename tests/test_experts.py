@@ -398,6 +398,29 @@ def test_the_stop_check_uses_the_acceptance_episode_count(monkeypatch):
     assert seen["max_timesteps"] == 2_000_000  # beyond the zoo's 1e6 steps, where the 95% rule needs it
 
 
+def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
+    """``--algo tqc`` for Ant-v4 trains with its own entry of ``OTHER_SPECS`` (checkpoints, the 95% stop rule), not
+    with the SAC expert's learning-rate switch; an algorithm with no entry trains with the zoo's settings alone; the
+    acceptance threshold is the env's either way."""
+    from sb3_mbil.experts import generate
+
+    seen = []
+
+    def fake_train(env_id, algo, seed, n_timesteps, **kwargs):
+        seen.append((algo, kwargs))
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(generate, "train_zoo_expert", fake_train)
+    for algo in ("tqc", "sac", "td3"):
+        with pytest.raises(RuntimeError, match="stop here"):
+            generate.get_expert("Ant-v4", source="zoo", algo=algo, n_eval_episodes=100)
+    (tqc, tqc_kwargs), (_, sac_kwargs), (_, td3_kwargs) = seen
+    assert tqc == "tqc" and tqc_kwargs["min_full_fraction"] == 0.95 and tqc_kwargs["save_freq"] == 25_000
+    assert tqc_kwargs["late_learning_rate"] is None and sac_kwargs["late_learning_rate"] == (1_350_000, 1e-4)
+    assert td3_kwargs == {}
+    assert generate.expert_spec("Ant-v4").algo == "sac" and generate.expert_spec("CartPole-v1", "ppo") is None
+
+
 def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monkeypatch):
     """Acceptance refused the model a stop check passed (Walker2d-v4: 20 of 20 episodes to the time limit, then 91%
     of 100): the run continues from its checkpoint on the remaining budget instead of starting a new seed."""
