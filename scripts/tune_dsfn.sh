@@ -7,11 +7,15 @@
 # replaces the reference one in the grid only if it is level with it (paired difference within two standard errors
 # on every cell); otherwise DSFN stays at its reference settings with the seeds the compute allows.
 # Resumable: rerun to finish; then python scripts/tuning_summary.py results/tuning/dsfn_*.csv
+#   bash scripts/tune_dsfn.sh              # both protocols
+#   bash scripts/tune_dsfn.sh published    # one of them (published: where DSFN's published values are)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNNER=${CURVE_RUNNER:-"--num-cpus ${NUM_CPUS:-2}"}
 SHORT='{"dsfn": {"warm_start_steps": 5000, "dqn_steps": 3000, "sf_steps": 5000, "n_timesteps": 90000}}'
-for protocol in published full; do
+PROTOCOLS=${1:-published full}
+case "$PROTOCOLS" in published|full|"published full") ;; *) echo "usage: bash scripts/tune_dsfn.sh [published|full]" >&2; exit 2 ;; esac
+for protocol in $PROTOCOLS; do
   COMMON="--algos dsfn --envs LunarLander-v3 CartPole-v1 Acrobot-v1 --n-trajectories 1 --seeds 100-102 --episodes 100 --protocol $protocol $RUNNER"
   python scripts/benchmark.py $COMMON --csv results/tuning/dsfn_short_$protocol.csv --overrides "$SHORT"
   python scripts/benchmark.py $COMMON --csv results/tuning/dsfn_reference_$protocol.csv
