@@ -225,6 +225,27 @@ def test_logit_penalty_bounds_the_logits_and_is_discrete_only(algo, data):
         make(algo, "CartPole-v1", data["CartPole-v1"], logit_penalty=-1.0)
 
 
+def test_bc_label_smoothing_is_torchs_and_caps_the_policys_confidence(data):
+    """(1 - eps) L_BC + eps * uniform cross-entropy is torch's cross_entropy(label_smoothing=eps); trained with it, the
+    policy's probability of its greedy action stays near 1 - eps + eps / K instead of going to 1; Discrete only."""
+    from sb3_mbil.common.losses import uniform_cross_entropy
+
+    logits, actions, eps = th.randn(32, 3), th.randint(0, 3, (32,)), 0.2
+    ours = (1 - eps) * th.nn.functional.cross_entropy(logits, actions) + eps * uniform_cross_entropy((logits,))
+    assert th.allclose(ours, th.nn.functional.cross_entropy(logits, actions, label_smoothing=eps))
+    obs = th.as_tensor(np.concatenate([o for o, _ in data["CartPole-v1"]]), dtype=th.float32)
+    confidence = {}
+    for smoothing in (0.0, 0.2):
+        model = make(BC, "CartPole-v1", data["CartPole-v1"], label_smoothing=smoothing).learn(2000)
+        with th.no_grad():
+            confidence[smoothing] = float(th.softmax(model.policy.heads(obs)[0], -1).max(-1).values.median())
+    assert confidence[0.0] > 0.97 and confidence[0.2] < 0.93, confidence
+    with pytest.raises(ValueError, match="label_smoothing: expected 0 for Box actions"):
+        make(BC, "Pendulum-v1", data["Pendulum-v1"], label_smoothing=0.1)
+    with pytest.raises(ValueError, match="label_smoothing"):
+        make(BC, "CartPole-v1", data["CartPole-v1"], label_smoothing=1.5)
+
+
 def test_bc_observation_noise_smooths_the_policy_around_the_expert_states(data):
     """Training on s + sigma * std(s) * eps with the expert's action kept: the mean action moves less when the state
     is perturbed by that much than plain BC's does."""

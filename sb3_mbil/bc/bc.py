@@ -8,7 +8,15 @@ import torch as th
 from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
-from sb3_mbil.common.losses import bc_heads, bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
+from sb3_mbil.common.losses import (
+    bc_heads,
+    bc_loss,
+    check_discrete_weight,
+    check_logit_penalty,
+    logit_penalty,
+    resolve_bc_loss,
+    uniform_cross_entropy,
+)
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
 from sb3_mbil.common.validation import check_real
@@ -29,6 +37,14 @@ class BC(OfflineAlgorithm):
     (std per dimension over the expert states): a smoothness prior that labels states near the expert's with the
     expert's action.
 
+    ``label_smoothing`` (epsilon, Discrete) fits the soft label (1 - epsilon) onehot(a) + epsilon / K (K actions)
+    instead of onehot(a), torch's ``cross_entropy(label_smoothing=...)``:
+
+        min_theta  (1 - epsilon) L_BC(pi_theta, D) + epsilon * E_{s ~ D}[-(1/K) sum_b log pi_theta(b|s)]
+
+    It is the control of MBIL-C's soft labels beta * onehot(a) + alpha * w * P(. | s, a, s') (issue 18): the same
+    kind of target with a label that knows nothing of the expert.
+
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
     :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`)
@@ -39,6 +55,7 @@ class BC(OfflineAlgorithm):
         BC, actions within 1e-4 of a bound clipped)
     :param weight_decay: Adam weight decay of the policy
     :param logit_penalty: (Discrete) weight lambda of the squared logits (0: none)
+    :param label_smoothing: (Discrete) epsilon in [0, 1], the uniform label's share of the target (0: none)
     :param observation_noise: sigma, std of the Gaussian noise on each minibatch's expert states in units of the expert
         states' std per dimension (0: none)
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
@@ -60,6 +77,7 @@ class BC(OfflineAlgorithm):
         weight_decay: float = 0.0,
         logit_penalty: float = 0.0,
         observation_noise: float = 0.0,
+        label_smoothing: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
         tensorboard_log: str | None = None,
         verbose: int = 0,
@@ -75,6 +93,7 @@ class BC(OfflineAlgorithm):
         self.bc_loss = bc_loss
         self.logit_penalty = logit_penalty
         self.observation_noise = observation_noise
+        self.label_smoothing = label_smoothing
         if _init_setup_model:
             self._setup_model()
 
@@ -84,6 +103,7 @@ class BC(OfflineAlgorithm):
                                         bounded_mean=bool((self.policy_kwargs or {}).get("bounded_mean", False)))
         self.logit_penalty = check_logit_penalty(self.logit_penalty, self.action_space)
         self.observation_noise = check_real("observation_noise", self.observation_noise, low=0.0)
+        self.label_smoothing = check_discrete_weight("label_smoothing", self.label_smoothing, self.action_space, high=1.0)
 
     def _on_new_data(self) -> None:
         super()._on_new_data()
@@ -105,6 +125,12 @@ class BC(OfflineAlgorithm):
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)
         self._record("train/bc_loss", loss)
+
+        # Label smoothing (Discrete): the cross-entropy against (1 - epsilon) onehot(a) + epsilon / K.
+        if self.label_smoothing > 0:
+            uniform = uniform_cross_entropy(heads)
+            loss = (1.0 - self.label_smoothing) * loss + self.label_smoothing * uniform
+            self._record("train/uniform_cross_entropy", uniform)
 
         # Logit penalty (Discrete): lambda * mean of the squared logits.
         if self.logit_penalty > 0:

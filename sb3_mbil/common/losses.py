@@ -65,13 +65,25 @@ def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Ten
     return (heads[0] - actions.view_as(heads[0])).pow(2).mean()
 
 
+def check_discrete_weight(name: str, value: float, action_space: spaces.Space, high: float | None = None) -> float:
+    """The weight of a term of a categorical policy (:func:`logit_penalty`, BC's label smoothing): a finite number
+    >= 0 (and <= ``high``), and 0 unless the actions are Discrete."""
+    value = check_real(name, value, low=0.0, high=high)
+    if value > 0 and not isinstance(action_space, spaces.Discrete):
+        raise ValueError(f"{name}: expected 0 for {type(action_space).__name__} actions (a term of a categorical "
+                         f"policy), found {value}")
+    return value
+
+
 def check_logit_penalty(value: float, action_space: spaces.Space) -> float:
     """The weight of :func:`logit_penalty`: a finite number >= 0, and 0 unless the actions are Discrete."""
-    value = check_real("logit_penalty", value, low=0.0)
-    if value > 0 and not isinstance(action_space, spaces.Discrete):
-        raise ValueError(f"logit_penalty: expected 0 for {type(action_space).__name__} actions (it penalises a "
-                         f"categorical policy's logits), found {value}")
-    return value
+    return check_discrete_weight("logit_penalty", value, action_space)
+
+
+def uniform_cross_entropy(heads: Sequence[th.Tensor]) -> th.Tensor:
+    """E_s[-mean_b log pi(b|s)]: the cross-entropy of a categorical policy against the uniform label (the part of
+    label smoothing that the observed action does not carry)."""
+    return -th.log_softmax(heads[0], dim=-1).mean()
 
 
 def logit_penalty(heads: Sequence[th.Tensor]) -> th.Tensor:
