@@ -275,32 +275,35 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     assert expert.source == "zoo:dqn seed=0"
 
 
-def test_a_late_learning_rate_takes_over_at_its_checkpoint(tmp_path, monkeypatch):
-    """``late_learning_rate=(steps, lr)``: the run stops at the checkpoint of ``steps`` and the training continues from
-    it at ``lr``; a session that ends between the two runs does not take the first run's model for the end."""
+def test_late_hyperparameters_take_over_at_their_checkpoints(tmp_path, monkeypatch):
+    """``late_hyperparams=((steps, {name: value}), ...)``: each run stops at the checkpoint of the next switch and the
+    training continues from it with that switch's settings added to the earlier ones; a session that ends between two
+    runs does not take the first run's model for the end."""
     import json
 
     from sb3_mbil.experts import generate
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
-    kwargs = dict(seed=0, n_timesteps=400, save_freq=200, n_evaluations=2)
-    with pytest.raises(ValueError, match="late_learning_rate: expected a step count that is a multiple of save_freq"):
-        generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(150, 1e-5), **kwargs)
+    kwargs = dict(seed=0, n_timesteps=600, save_freq=200, n_evaluations=3)
+    switches = ((200, {"learning_rate": 1e-5}), (400, {"gamma": 0.9}))
+    with pytest.raises(ValueError, match="late_hyperparams: expected step counts that are multiples of save_freq"):
+        generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=((150, {"learning_rate": 1e-5}),), **kwargs)
     original = generate._run_logged
     monkeypatch.setattr(generate, "_run_logged", lambda *a: (original(*a), exec("raise KeyboardInterrupt"))[0])
     with pytest.raises(KeyboardInterrupt):  # the session ends right after the first run
-        generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(200, 1e-5), **kwargs)
+        generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
     monkeypatch.setattr(generate, "_run_logged", original)
-    folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400"
-    run1, run2 = (folder / "dqn" / f"CartPole-v1_{i}" for i in (1, 2))
+    folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n600"
+    run1, run2, run3 = (folder / "dqn" / f"CartPole-v1_{i}" for i in (1, 2, 3))
     assert (run1 / "CartPole-v1.zip").is_file() and (run1 / "rl_model_replay_buffer_200_steps.pkl").is_file()
     assert not run2.exists()
-    generate.train_zoo_expert("CartPole-v1", "dqn", late_learning_rate=(200, 1e-5), **kwargs)
+    generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
     progress = json.loads((folder / "progress.json").read_text())
-    assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200}
-    first, second = DQN.load(run1 / "CartPole-v1.zip"), DQN.load(run2 / "CartPole-v1.zip")
-    assert first.policy.optimizer.param_groups[0]["lr"] != 1e-5
+    assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200, "CartPole-v1_3": 400}
+    first, second, third = (DQN.load(run / "CartPole-v1.zip") for run in (run1, run2, run3))
+    assert first.policy.optimizer.param_groups[0]["lr"] != 1e-5 and first.gamma == second.gamma == 0.99
     assert second.policy.optimizer.param_groups[0]["lr"] == 1e-5  # it trained at the late rate
+    assert third.policy.optimizer.param_groups[0]["lr"] == 1e-5 and third.gamma == 0.9  # both switches
 
 
 def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path, monkeypatch):
@@ -400,7 +403,7 @@ def test_the_stop_check_uses_the_acceptance_episode_count(monkeypatch):
 
 def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
     """``--algo tqc`` for Ant-v4 trains with its own entry of ``OTHER_SPECS`` (checkpoints, the 95% stop rule), not
-    with the SAC expert's learning-rate switch; an algorithm with no entry trains with the zoo's settings alone; the
+    with the SAC expert's hyperparameter switches; an algorithm with no entry trains with the zoo's settings alone; the
     acceptance threshold is the env's either way."""
     from sb3_mbil.experts import generate
 
@@ -416,7 +419,8 @@ def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
             generate.get_expert("Ant-v4", source="zoo", algo=algo, n_eval_episodes=100)
     (tqc, tqc_kwargs), (_, sac_kwargs), (_, td3_kwargs) = seen
     assert tqc == "tqc" and tqc_kwargs["min_full_fraction"] == 0.95 and tqc_kwargs["save_freq"] == 25_000
-    assert tqc_kwargs["late_learning_rate"] is None and sac_kwargs["late_learning_rate"] == (1_350_000, 1e-4)
+    assert tqc_kwargs["late_hyperparams"] == ()
+    assert sac_kwargs["late_hyperparams"] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))
     assert td3_kwargs == {}
     assert generate.expert_spec("Ant-v4").algo == "sac" and generate.expert_spec("CartPole-v1", "ppo") is None
 

@@ -63,10 +63,13 @@ class ExpertSpec:
     #: training steps at most (default: the zoo's ``n_timesteps``); above the zoo's where a SAC agent that meets the
     #: return still falls in more episodes than ``min_full_fraction`` allows when the zoo's budget runs out
     max_timesteps: int | None = None
-    #: ``(steps, learning_rate)``: from this many training steps on (a multiple of ``save_freq``), the training
-    #: continues at this learning rate instead of the zoo's. For a SAC agent whose evaluations still swing widely
-    #: at the zoo's rate (Ant-v4: 1 784 to 3 866 over 400 000 steps at 3e-4)
-    late_learning_rate: tuple[int, float] | None = None
+    #: ``((steps, {name: value}), ...)``: from each switch's step count on (a multiple of ``save_freq``), the training
+    #: continues with these zoo hyperparameters instead of the zoo's (a later switch adds to the earlier ones). Ant-v4's
+    #: SAC: a learning rate of 1e-4 once its evaluations still swung widely at the zoo's 3e-4 (1 784 to 3 866 over
+    #: 400 000 steps), then a discount of 0.995 once it still jumped out of its healthy height range in a third of its
+    #: episodes (the horizon of 0.99, about 100 steps, prices the reward lost by ending an episode at about half of
+    #: what 0.995 does)
+    late_hyperparams: tuple[tuple[int, dict[str, Any]], ...] = ()
 
 
 # The paper's experts (DQN CartPole, A2C Acrobot, PPO LunarLander), from the RL Zoo.
@@ -82,13 +85,16 @@ EXPERTS: dict[str, ExpertSpec] = {
     "Walker2d-v4": ExpertSpec("sac", 3500.0, save_freq=25_000, stop_at_return=4000.0, n_evaluations=80,
                               min_full_fraction=0.95, max_timesteps=2_000_000),
     "Ant-v4": ExpertSpec("sac", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=80,
-                         min_full_fraction=0.95, max_timesteps=2_000_000, late_learning_rate=(1_350_000, 1e-4)),
+                         min_full_fraction=0.95, max_timesteps=2_000_000,
+                         late_hyperparams=((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))),
 }
 
 #: zoo trainings of an env by another algorithm than its first pool's expert, with their own settings (``--algo``).
 #: Ant-v4's TQC (issue 19): its SAC (seed 0, the shipped pool's expert) never ran 95% of its episodes to the time
 #: limit; 1 525 000 steps, the last 175 000 at a learning rate of 1e-4, left it jumping above the healthy height in
-#: 23-50% of them (docs/experts.md). rl_zoo3's tqc.yml lists Ant-v4 with 1e6-step defaults, like its sac.yml.
+#: 23-50% of them (docs/experts.md). rl_zoo3's tqc.yml lists Ant-v4 with 1e6-step defaults, like its sac.yml. TQC was
+#: stopped at 375 000 steps: its evaluations stayed at 750-850 over its last 150 000 steps (SAC's were near 3 000 by
+#: then), and 9 of 10 deterministic episodes ended by jumping above the healthy height.
 OTHER_SPECS: dict[tuple[str, str], ExpertSpec] = {
     ("Ant-v4", "tqc"): ExpertSpec("tqc", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=80,
                                   min_full_fraction=0.95, max_timesteps=2_000_000),
@@ -230,7 +236,8 @@ def zoo_run_folder(env_id: str, algo: str, seed: int, n_timesteps: int | None = 
 def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | None = None, n_evaluations: int = 20,
                      verbose: int = 1, save_freq: int | None = None, stop_at_return: float | None = None,
                      min_full_fraction: float = 0.0, stop_eval_episodes: int = 20,
-                     max_timesteps: int | None = None, late_learning_rate: tuple[int, float] | None = None) -> Expert:
+                     max_timesteps: int | None = None,
+                     late_hyperparams: tuple[tuple[int, dict[str, Any]], ...] = ()) -> Expert:
     """Train the RL Zoo agent locally with rl_zoo3's shipped hyperparameters; return its best checkpoint.
 
     Runs ``python -m rl_zoo3.train`` (one torch thread). A finished run of the same (algo, env,
@@ -247,18 +254,20 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         instead of the zoo's best-return checkpoint.
     :param max_timesteps: the step budget of a cached run (``n_timesteps`` names a separate run instead); default
         the zoo's ``n_timesteps``
-    :param late_learning_rate: ``(steps, learning_rate)``: the runs that continue from ``steps`` on (a multiple of
-        ``save_freq``) pass ``learning_rate`` to rl_zoo3 (``--hyperparams learning_rate:...``); a run that would cross
-        ``steps`` stops there, at a checkpoint, and the next one continues at the new rate
+    :param late_hyperparams: ``((steps, {name: value}), ...)``: the runs that continue from ``steps`` on (a multiple
+        of ``save_freq``) pass these hyperparameters to rl_zoo3 (``--hyperparams name:value``), with those of every
+        earlier switch; a run that would cross a switch stops there, at a checkpoint, and the next one continues with
+        the new settings
     :param stop_eval_episodes: evaluation episodes of that stop check (``get_expert`` passes its acceptance count, so
         that training stops only where acceptance would pass: 20 episodes all to the time limit once became 91% of 100)
     """
     folder = zoo_run_folder(env_id, algo, seed, n_timesteps)
     runs_dir = folder / algo
     progress_file = folder / "progress.json"
-    if late_learning_rate is not None and (not save_freq or late_learning_rate[0] % save_freq):
-        raise ValueError(f"late_learning_rate: expected a step count that is a multiple of save_freq ({save_freq}), "
-                         f"found {late_learning_rate[0]}")
+    for switch, _ in late_hyperparams:
+        if not save_freq or switch % save_freq:
+            raise ValueError(f"late_hyperparams: expected step counts that are multiples of save_freq ({save_freq}), "
+                             f"found {switch}")
     while not _zoo_finished(runs_dir, env_id):
         budget = n_timesteps or max_timesteps or _zoo_budget(env_id, algo)
         eval_freq = max(budget // n_evaluations, 1)
@@ -282,14 +291,14 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
         if remaining <= 0:
             break
         next_run = f"{env_id}_{_run_ids(runs_dir, env_id)[-1] + 1 if _run_ids(runs_dir, env_id) else 1}"
-        late_lr, stops_at_switch = None, False
-        if late_learning_rate is not None:
-            switch, rate = late_learning_rate
+        late, stops_at_switch = {}, False
+        for switch, values in sorted(late_hyperparams, key=lambda item: item[0]):
             if done >= switch:
-                late_lr = rate
-            elif done + remaining > switch:  # stop at the switch (a checkpoint); the next run continues at the rate
+                late.update(values)
+            elif done + remaining > switch:  # stop at the switch (a checkpoint); the next run continues from there
                 remaining, stops_at_switch = switch - done, True
                 progress.setdefault("stopped_at_switch", []).append(next_run)  # its final model is not the end
+                break
         if n_timesteps is not None or resume is not None or stops_at_switch:
             cmd += ["-n", str(remaining)]
         callbacks = []
@@ -311,8 +320,7 @@ def train_zoo_expert(env_id: str, algo: str, seed: int = 0, n_timesteps: int | N
             else:  # a carried checkpoint (import_zoo_checkpoint): the zoo's warm-up refills a fresh buffer first
                 logger.warning("%s has no replay buffer: training continues on a fresh one, after the zoo's "
                                "learning_starts steps of random actions", resume[0])
-        if late_lr is not None:
-            hyperparams.append(f"learning_rate:{late_lr!r}")
+        hyperparams += [f"{name}:{value!r}" for name, value in late.items()]
         if hyperparams:
             cmd += ["--hyperparams", *hyperparams]
         progress["steps_before"][next_run] = done
@@ -369,7 +377,7 @@ def _run_ids(runs_dir: Path, env_id: str) -> list[int]:
 def _zoo_finished(runs_dir: Path, env_id: str) -> bool:
     """The latest run saved its final model (budget used up, or stopped at the return threshold), acceptance
     did not refuse that model while budget remained (:func:`refuse_zoo_run`), and the run did not stop at a
-    ``late_learning_rate`` switch."""
+    ``late_hyperparams`` switch."""
     ids = _run_ids(runs_dir, env_id)
     if not ids or not (runs_dir / f"{env_id}_{ids[-1]}" / f"{env_id}.zip").is_file():
         return False
@@ -650,7 +658,7 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
     zoo_kwargs = {"save_freq": spec.save_freq, "stop_at_return": spec.stop_at_return,
                   "n_evaluations": spec.n_evaluations, "min_full_fraction": spec.min_full_fraction,
                   "stop_eval_episodes": n_eval_episodes, "max_timesteps": spec.max_timesteps,
-                  "late_learning_rate": spec.late_learning_rate} \
+                  "late_hyperparams": spec.late_hyperparams} \
         if spec else {}
     min_full = min_full_fraction if min_full_fraction is not None else (spec.min_full_fraction if spec else 0.0)
     attempts = []
