@@ -420,8 +420,7 @@ def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
     (tqc, tqc_kwargs), (_, sac_kwargs), (_, td3_kwargs) = seen
     assert tqc == "tqc" and tqc_kwargs["min_full_fraction"] == 0.95 and tqc_kwargs["save_freq"] == 25_000
     assert tqc_kwargs["late_hyperparams"] == ()
-    assert sac_kwargs["late_hyperparams"] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}),
-                                           (1_700_000, {"learning_rate": 3e-5}))
+    assert sac_kwargs["late_hyperparams"] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))
     assert td3_kwargs == {}
     assert generate.expert_spec("Ant-v4").algo == "sac" and generate.expert_spec("CartPole-v1", "ppo") is None
 
