@@ -68,7 +68,8 @@ class ExpertSpec:
     #: SAC: a learning rate of 1e-4 once its evaluations still swung widely at the zoo's 3e-4 (1 784 to 3 866 over
     #: 400 000 steps), then a discount of 0.995 once it still jumped out of its healthy height range in a third of its
     #: episodes (the horizon of 0.99, about 100 steps, prices the reward lost by ending an episode at about half of
-    #: what 0.995 does)
+    #: what 0.995 does). At 0.995 the critic overestimates and the training collapses about 15 000 steps after
+    #: 1 700 000 (docs/experts.md)
     late_hyperparams: tuple[tuple[int, dict[str, Any]], ...] = ()
 
 
@@ -93,7 +94,7 @@ EXPERTS: dict[str, ExpertSpec] = {
 #: Ant-v4's TQC (issue 19): its SAC (seed 0, the shipped pool's expert) never ran 95% of its episodes to the time
 #: limit; 1 525 000 steps, the last 175 000 at a learning rate of 1e-4, left it jumping above the healthy height in
 #: 23-50% of them (docs/experts.md). rl_zoo3's tqc.yml lists Ant-v4 with 1e6-step defaults, like its sac.yml. TQC was
-#: stopped at 375 000 steps: its evaluations stayed at 750-850 over its last 150 000 steps (SAC's were near 3 000 by
+#: stopped at 375 000 steps: its evaluations were 748-822 over its last 75 000 steps (SAC's were near 3 000 by
 #: then), and 9 of 10 deterministic episodes ended by jumping above the healthy height.
 OTHER_SPECS: dict[tuple[str, str], ExpertSpec] = {
     ("Ant-v4", "tqc"): ExpertSpec("tqc", 3000.0, save_freq=25_000, stop_at_return=3500.0, n_evaluations=80,
