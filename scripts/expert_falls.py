@@ -2,7 +2,7 @@
 the time limit and those that end on each failed health check of the env (torso height above or below its healthy
 range, or its angle), from each terminated episode's last observation (sb3_mbil.benchmark.falls.termination_cause).
 
-    python scripts/expert_falls.py --env Ant-v4 --model results/experts/sac-Ant-v4-seed0/rl_model_1525000_steps.zip
+    python scripts/expert_falls.py --env Ant-v4 --model results/experts/sac-Ant-v4-seed0/rl_model_1700000_steps.zip
 """
 
 import argparse
