@@ -69,7 +69,7 @@ class ExpertSpec:
     #: 400 000 steps), then a discount of 0.995 once it still jumped out of its healthy height range in a third of its
     #: episodes (the horizon of 0.99, about 100 steps, prices the reward lost by ending an episode at about half of
     #: what 0.995 does). At 0.995 the critic overestimates and the training collapses about 15 000 steps after
-    #: 1 700 000 (docs/experts.md)
+    #: 1 700 000; 0.993 from 1 700 000 on does not collapse, but falls as often as 0.99 (docs/experts.md)
     late_hyperparams: tuple[tuple[int, dict[str, Any]], ...] = ()
 
 
