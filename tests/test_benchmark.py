@@ -434,6 +434,22 @@ def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatc
     assert "| bc | CartPole-v1 | 1 | 171.5 (4) | 170 |" in text and "Within 0.15 of the published value: 1 of 1" in text
 
 
+def test_published_check_separates_an_algorithms_own_gap_from_the_gap_bc_shares():
+    """'beyond BC': an algorithm off the published value by as much as our BC is (same seeds) has no gap of its own;
+    one that moves relative to BC does."""
+    from sb3_mbil.benchmark import page
+
+    ours = {"bc": 70.0, "edm": 126.0, "rcal": 300.0}  # published 170, 226, 136: BC and EDM both 100 below
+    rows = [{"algo": algo, "env": "CartPole-v1", "n_trajectories": 1, "seed": seed, "mean_return": ret}
+            for algo, ret in ours.items() for seed in (0, 1)]
+    rows.append({"algo": "bc", "env": "CartPole-v1", "n_trajectories": 1, "seed": 2, "mean_return": 70.0})
+    text = page.published_check(rows)
+    assert "| edm | CartPole-v1 | 1 | 126.0 (2) | 226 |" in text and "| -0.21 | +0.00 | no |" in text
+    rcal = next(line for line in text.splitlines() if line.startswith("| rcal |"))
+    assert float(rcal.split("|")[9]) > 0.5  # (300 - 70) - (136 - 170), normalised
+    assert "Of the 2 cells off by more (BC's own excluded), 1 are also more than 0.15 off beyond BC" in text
+
+
 def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path):
     """--tags: BC of two backbones, in two files under the same name, paired seed by seed."""
     repo = Path(__file__).resolve().parent.parent
