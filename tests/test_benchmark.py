@@ -444,10 +444,12 @@ def test_published_check_separates_an_algorithms_own_gap_from_the_gap_bc_shares(
             for algo, ret in ours.items() for seed in (0, 1)]
     rows.append({"algo": "bc", "env": "CartPole-v1", "n_trajectories": 1, "seed": 2, "mean_return": 70.0})
     text = page.published_check(rows)
-    assert "| edm | CartPole-v1 | 1 | 126.0 (2) | 226 |" in text and "| -0.21 | +0.00 | no |" in text
+    assert "| edm | CartPole-v1 | 1 | 126.0 (2) | 226 |" in text and "| -0.21 | +0.00 | [0.22, 0.22] | no |" in text
     rcal = next(line for line in text.splitlines() if line.startswith("| rcal |"))
     assert float(rcal.split("|")[9]) > 0.5  # (300 - 70) - (136 - 170), normalised
     assert "Of the 2 cells off by more (BC's own excluded), 1 are also more than 0.15 off beyond BC" in text
+    # seeds that agree give a point interval, which holds no published value 100 away
+    assert "Of the 3 cells off by more than 0.15, 0 hold the published value inside our 95% interval." in text
 
 
 def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path):
