@@ -220,7 +220,8 @@ def grid_section(title: str, path: str, reps: int, intro: str = "", published: b
                   "\"beyond BC\" is the algorithm's gap minus BC's in the same cell (our BC on the same seeds, in "
                   "normalised units): near zero, the algorithm stands where the published one does relative to BC, "
                   "and the gap is one that BC shares (the expert, the env version, the kept states); far from zero, "
-                  "the gap is the algorithm's own.", "", published_check(rows)]
+                  "the gap is the algorithm's own. \"our 95% CI\" is Student's t interval of our mean over seeds "
+                  "(normalised).", "", published_check(rows)]
     return "\n".join(parts) + "\n"
 
 
