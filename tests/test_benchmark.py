@@ -434,6 +434,27 @@ def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatc
     assert "| bc | CartPole-v1 | 1 | 171.5 (4) | 170 |" in text and "Within 0.15 of the published value: 1 of 1" in text
 
 
+def test_rows_name_a_dirty_commit_only_when_code_differs_not_the_results(tmp_path):
+    """A running grid changes its own tracked CSV; that must not mark its rows' commit '-dirty', a code change must."""
+    from sb3_mbil.benchmark.grid import git_commit
+
+    def git(*args):
+        subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True)
+
+    git("init", "-q")
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "grid.csv").write_text("algo\n")
+    (tmp_path / "code.py").write_text("x = 1\n")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "first")
+    clean = git_commit(tmp_path)
+    assert re.fullmatch(r"[0-9a-f]{7,}", clean)
+    (tmp_path / "results" / "grid.csv").write_text("algo\nbc\n")
+    assert git_commit(tmp_path) == clean
+    (tmp_path / "code.py").write_text("x = 2\n")
+    assert git_commit(tmp_path) == clean + "-dirty"
+
+
 def test_published_check_separates_an_algorithms_own_gap_from_the_gap_bc_shares():
     """'beyond BC': an algorithm off the published value by as much as our BC is (same seeds) has no gap of its own;
     one that moves relative to BC does."""

@@ -39,13 +39,15 @@ def make_grid(algos, envs, n_trajectories, seeds) -> list[Run]:
     return [Run(a, e, int(n), int(s)) for s, e, n, a in itertools.product(seeds, envs, n_trajectories, algos)]
 
 
-def git_commit() -> str:
+def git_commit(root: str | Path | None = None) -> str:
+    """The short commit of the checkout, with ``-dirty`` when a tracked file outside ``results/`` differs from it
+    (the result files are the grids' own output, which a running grid changes; the code is what the suffix is for)."""
     try:
-        root = Path(__file__).resolve().parents[2]
+        root = Path(root) if root is not None else Path(__file__).resolve().parents[2]
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
                               check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True,
-                               text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results"],
+                               cwd=root, capture_output=True, text=True, check=True).stdout.strip()
         return head + ("-dirty" if dirty else "")
     except Exception:
         return "unknown"
