@@ -306,24 +306,21 @@ def test_late_hyperparameters_take_over_at_their_checkpoints(tmp_path, monkeypat
     assert third.policy.optimizer.param_groups[0]["lr"] == 1e-5 and third.gamma == 0.9  # both switches
 
 
-def test_a_reward_switch_relabels_the_replay_buffer_once_and_evaluates_on_the_env_as_it_is(tmp_path, monkeypatch):
-    """A late switch of the training env's reward (``env_kwargs``) with ``buffer_reward_offset``: the run that starts
-    at the switch puts the stored transitions on the new reward's scale, new transitions come from the new reward,
-    and the zoo's evaluations stay on the env as it is (Ant-v4's healthy reward: acceptance and the pool use Ant-v4)."""
+def test_a_reward_set_from_the_start_trains_on_it_and_evaluates_on_the_env_as_it_is(tmp_path, monkeypatch):
+    """A switch at 0 with ``env_kwargs`` (Ant-v4's TD3: a healthy reward of 5): the training env pays the changed
+    reward from the first step, and the zoo's evaluations stay on the env as it is (acceptance and the pool too)."""
     from stable_baselines3.common.save_util import load_from_pkl
 
     from sb3_mbil.experts import generate
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     # CartPole-v1 pays 1 a step; Sutton and Barto's reward pays 0, and -1 on the step that ends an episode
-    switches = ((200, {"env_kwargs": {"sutton_barto_reward": True}, generate.BUFFER_REWARD_OFFSET: -1.0}),)
     generate.train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2,
-                              late_hyperparams=switches)
-    run2 = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400" / "dqn" / "CartPole-v1_2"
-    rewards = load_from_pkl(run2 / "rl_model_replay_buffer_200_steps.pkl").rewards[:400, 0]
-    assert (rewards[:200] == 0.0).all()  # the first run's rewards of 1, offset once by -1
-    assert set(np.unique(rewards[200:])) == {-1.0, 0.0}  # the new reward, episodes ending on the way
-    with np.load(run2 / "evaluations.npz") as ev:
+                              late_hyperparams=((0, {"env_kwargs": {"sutton_barto_reward": True}}),))
+    run = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400" / "dqn" / "CartPole-v1_1"
+    rewards = load_from_pkl(run / "rl_model_replay_buffer_400_steps.pkl").rewards[:400, 0]
+    assert set(np.unique(rewards)) == {-1.0, 0.0}  # the changed reward, episodes ending on the way
+    with np.load(run / "evaluations.npz") as ev:
         assert (ev["results"] > 0).all()  # evaluated on CartPole-v1's own reward
 
 
@@ -435,15 +432,15 @@ def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
         raise RuntimeError("stop here")
 
     monkeypatch.setattr(generate, "train_zoo_expert", fake_train)
-    for algo in ("tqc", "sac", "td3"):
+    for algo in ("tqc", "sac", "td3", "ddpg"):
         with pytest.raises(RuntimeError, match="stop here"):
             generate.get_expert("Ant-v4", source="zoo", algo=algo, n_eval_episodes=100)
-    (tqc, tqc_kwargs), (_, sac_kwargs), (_, td3_kwargs) = seen
+    (tqc, tqc_kwargs), (_, sac_kwargs), (_, td3_kwargs), (_, ddpg_kwargs) = seen
     assert tqc == "tqc" and tqc_kwargs["min_full_fraction"] == 0.95 and tqc_kwargs["save_freq"] == 25_000
     assert tqc_kwargs["late_hyperparams"] == ()
-    assert sac_kwargs["late_hyperparams"] == generate.EXPERTS["Ant-v4"].late_hyperparams
-    assert sac_kwargs["late_hyperparams"][:2] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))
-    assert td3_kwargs == {}
+    assert sac_kwargs["late_hyperparams"] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))
+    assert td3_kwargs["late_hyperparams"] == ((0, {"env_kwargs": {"healthy_reward": 5.0}}),)
+    assert ddpg_kwargs == {}
     assert generate.expert_spec("Ant-v4").algo == "sac" and generate.expert_spec("CartPole-v1", "ppo") is None
 
 

@@ -85,36 +85,6 @@ class StopTrainingOnReturn(BaseCallback):
         return True
 
 
-class OffsetReplayRewards(BaseCallback):
-    """Add ``offset`` to every reward stored in the replay buffer, once, when training starts.
-
-    For a continuation whose env pays a constant more per step than the env that filled the buffer (Ant-v4's
-    ``healthy_reward``, paid on every step while ``terminate_when_unhealthy``): the stored transitions are put on
-    the new reward's scale, so that the critic does not learn from a mixture of the two rewards. Usable from
-    rl_zoo3's ``callback`` hyperparameter; the training's step count and the buffer's size are unchanged.
-
-    :param offset: what each stored reward gains
-    """
-
-    def __init__(self, offset: float, verbose: int = 0):
-        super().__init__(verbose)
-        if not np.isfinite(offset):
-            raise ValueError(f"offset: expected a finite number, found {offset!r}")
-        self.offset = float(offset)
-
-    def _on_training_start(self) -> None:
-        buffer = getattr(self.model, "replay_buffer", None)
-        if buffer is None:
-            raise ValueError(f"model: expected an off-policy model with a replay buffer, found {type(self.model).__name__}")
-        size = buffer.buffer_size if buffer.full else buffer.pos
-        buffer.rewards[:size] += self.offset
-        if self.verbose:
-            print(f"Replay buffer: {size} stored rewards offset by {self.offset}")
-
-    def _on_step(self) -> bool:
-        return True
-
-
 class ResumableCheckpoint(CheckpointCallback):
     """SB3's CheckpointCallback with the replay buffer and VecNormalize statistics, written so that a
     checkpoint is whole or absent, keeping only the newest ``keep`` checkpoints.
