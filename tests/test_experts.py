@@ -307,8 +307,9 @@ def test_late_hyperparameters_take_over_at_their_checkpoints(tmp_path, monkeypat
 
 
 def test_a_reward_set_from_the_start_trains_on_it_and_evaluates_on_the_env_as_it_is(tmp_path, monkeypatch):
-    """A switch at 0 with ``env_kwargs`` (Ant-v4's TD3: a healthy reward of 5): the training env pays the changed
-    reward from the first step, and the zoo's evaluations stay on the env as it is (acceptance and the pool too)."""
+    """A switch at 0 with ``env_kwargs`` (tried for Ant-v4's TD3: a healthy reward of 5): the training env pays the
+    changed reward from the first step, and the zoo's evaluations stay on the env as it is (acceptance and the pool
+    too)."""
     from stable_baselines3.common.save_util import load_from_pkl
 
     from sb3_mbil.experts import generate
@@ -439,7 +440,7 @@ def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
     assert tqc == "tqc" and tqc_kwargs["min_full_fraction"] == 0.95 and tqc_kwargs["save_freq"] == 25_000
     assert tqc_kwargs["late_hyperparams"] == ()
     assert sac_kwargs["late_hyperparams"] == ((1_350_000, {"learning_rate": 1e-4}), (1_525_000, {"gamma": 0.995}))
-    assert td3_kwargs["late_hyperparams"] == ((0, {"env_kwargs": {"healthy_reward": 5.0}}),)
+    assert td3_kwargs["min_full_fraction"] == 0.95 and td3_kwargs["late_hyperparams"] == ()
     assert ddpg_kwargs == {}
     assert generate.expert_spec("Ant-v4").algo == "sac" and generate.expert_spec("CartPole-v1", "ppo") is None
 
