@@ -22,8 +22,11 @@ def main(argv=None):
     p.add_argument("--every", type=positive_int, default=20)
     p.add_argument("--episodes", type=positive_int, default=30)
     p.add_argument("--pool", default=None, help="pool to draw from (.npz or shipped pool name; default: the env's)")
+    p.add_argument("--overrides", default="{}", help='JSON settings replacing the zoo ones, e.g. \'{"weight_decay": 0}\'')
     p.add_argument("--csv", required=True)
     a = p.parse_args(argv)
+    import json
+
     import torch
 
     torch.set_num_threads(1)
@@ -33,7 +36,10 @@ def main(argv=None):
     from sb3_mbil.common.evaluation import evaluate
 
     commit = git_commit()
-    settings = tuned_settings("bc", a.env, {})
+    overrides = json.loads(a.overrides)
+    if not isinstance(overrides, dict):
+        raise ValueError(f"--overrides: expected a JSON object of BC settings, found {a.overrides!r}")
+    settings = tuned_settings("bc", a.env, overrides)
     steps = int(float(settings.pop("n_timesteps")))
     for n in a.n_trajectories:
         for s in a.seeds:
@@ -42,9 +48,9 @@ def main(argv=None):
                 data = draw.subsample(a.every, offset, seed=s)
                 model = ALGORITHMS["bc"]("MlpPolicy", a.env, expert_data=data, seed=s, **settings).learn(steps)
                 returns = evaluate(model, a.env, a.episodes, seed=10**6 + s)
-                row = {"env": a.env, "pool": a.pool or a.env, "n_trajectories": n, "seed": s, "offset": offset, "every": a.every,
-                       "n_pairs": data.n_steps, "mean_return": float(returns.mean()), "n_episodes": a.episodes,
-                       "commit": commit}
+                row = {"env": a.env, "pool": a.pool or a.env, "n_trajectories": n, "seed": s, "offset": offset,
+                       "every": a.every, "n_pairs": data.n_steps, "overrides": json.dumps(overrides, sort_keys=True),
+                       "mean_return": float(returns.mean()), "n_episodes": a.episodes, "commit": commit}
                 append_row(a.csv, row, list(row))
                 print(row, flush=True)
 
