@@ -6,8 +6,10 @@
   5th on Acrobot and LunarLander (its scripts). AVRIL keeps full trajectories. DSFN's and ValueDICE's classic-control
   data handling is not documented; they get BC's rate. MBIL and its variants use the same kept steps as BC, each with
   its true successor (s', a'). Each trajectory's subsampling starts at its own random step, as in the GAIL codes'
-  ``ExpertDataset`` (IQ-Learn's at step 0, as in its code): from step 0 the kept states of Acrobot-v1 sit at one phase
-  of the swing in every trajectory and BC never swings up.
+  ``ExpertDataset`` (IQ-Learn's at step 0, as in its code). EDM's code also starts at step 0, on trajectories that its
+  PPO and A2C experts recorded with sampled actions. Our pools hold the experts' deterministic actions, and from step 0
+  their kept states of Acrobot-v1 sit at one phase of the swing in every trajectory, so BC never swings up. Random
+  starts stand in for the spread that sampled actions give (``results/tuning/subsample_offset_sampled.csv``).
 - ``published_next``: a control for ``published``: each kept step and its next step, both as labelled (s, a) pairs,
   so that BC sees the labels MBIL gets from the successors (s', a'); MBIL then also gets the next step's tuple.
 
@@ -31,8 +33,9 @@ PUBLISHED_EVERY: dict[str, int | dict[str, int]] = {
 #: the default for algorithms not listed (MBIL and its variants): BC's rate
 DEFAULT_EVERY = 20
 #: where each trajectory's subsampling starts: "random" (its own step in [0, every), drawn with the run's seed: the
-#: GAIL codes' ExpertDataset) or 0 (IQ-Learn's code, whose random start is commented out). On Acrobot-v1 BC from
-#: step 0 scores -500 and from random steps -77 to -155, the published -94 to -159 (results/tuning/subsample_offset.csv)
+#: GAIL codes' ExpertDataset) or 0 (IQ-Learn's code, whose random start is commented out; EDM's code, on a sampled-action
+#: expert). On Acrobot-v1 BC from step 0 scores -500 and from random steps -77 to -155, the published -94 to -159
+#: (results/tuning/subsample_offset.csv)
 PUBLISHED_START: dict[str, int | str] = {"iq_learn": 0}
 DEFAULT_START = "random"
 
