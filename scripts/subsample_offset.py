@@ -10,6 +10,7 @@ env's shipped one (e.g. one whose expert sampled its actions, as EDM's code reco
 """
 
 import argparse
+import json
 
 from sb3_mbil.benchmark.cli import parse_seeds, positive_int, run
 
@@ -22,11 +23,10 @@ def main(argv=None):
     p.add_argument("--every", type=positive_int, default=20)
     p.add_argument("--episodes", type=positive_int, default=30)
     p.add_argument("--pool", default=None, help="pool to draw from (.npz or shipped pool name; default: the env's)")
-    p.add_argument("--overrides", default="{}", help='JSON settings replacing the zoo ones, e.g. \'{"weight_decay": 0}\'')
+    p.add_argument("--overrides", type=json.loads, default={},
+                   help='JSON settings replacing the zoo ones, e.g. \'{"weight_decay": 0}\'')
     p.add_argument("--csv", required=True)
     a = p.parse_args(argv)
-    import json
-
     import torch
 
     torch.set_num_threads(1)
@@ -36,9 +36,9 @@ def main(argv=None):
     from sb3_mbil.common.evaluation import evaluate
 
     commit = git_commit()
-    overrides = json.loads(a.overrides)
+    overrides = a.overrides
     if not isinstance(overrides, dict):
-        raise ValueError(f"--overrides: expected a JSON object of BC settings, found {a.overrides!r}")
+        raise ValueError(f"--overrides: expected a JSON object of BC settings, found {overrides!r}")
     settings = tuned_settings("bc", a.env, overrides)
     steps = int(float(settings.pop("n_timesteps")))
     for n in a.n_trajectories:
