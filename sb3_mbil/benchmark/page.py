@@ -322,7 +322,7 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
         curves_section("Figure 4: MuJoCo, one trajectory, every Box-capable algorithm", "results/figure4.csv",
                        "`bash scripts/run_figure4.sh`: each algorithm's zoo settings (BC, MBIL and MBIL-C on the "
                        "bounded-mean policy with a linearly decaying learning rate), 50 000 updates, seeds 0-4. "
-                       "Walker2d-v4 and Ant-v4 join when their retrained experts' pools ship.", plots=plots),
+                       "Walker2d-v4 and Ant-v4 on their retrained experts' pools (issue 19).", plots=plots),
         curves_section("Figure 4, the first backbone: MBIL and BC", "results/mujoco.csv",
                        "The earlier runs: a linear-output Gaussian mean and a constant learning rate, the previous "
                        "expert pools of Walker2d-v4 and Ant-v4.", plots=plots),
