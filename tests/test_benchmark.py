@@ -353,7 +353,13 @@ def test_paired_table_compares_final_returns_on_shared_seeds():
     rows += [{"env": "E", "algo": "mbil", "seed": 3, "gradient_step": 1000, "mean_return": 0.0}]  # no bc on seed 3
     assert final_returns(rows, last=1)[("E", "bc")][1] == (103.0, 2000)
     # mbil - bc = -10 on every shared seed: mean -10, standard error 0, below on 3 of 3
-    assert "| E | mbil | 3 | 93 | -10 +- 0 | 3 of 3 |" in paired_table(rows, "bc", last=1)
+    assert "| E | mbil | 3 | 93 | -10 +- 0 | [-10, -10] | 3 of 3 |" in paired_table(rows, "bc", last=1)
+    # differences -8, -10, -12: the t interval with 2 degrees of freedom, -10 +- 4.303 * 2 / sqrt(3)
+    rows[6]["mean_return"] += 2.0  # mbil seed 0 at step 1000 ...
+    rows[7]["mean_return"] += 2.0  # ... and 2000
+    rows[10]["mean_return"] -= 2.0
+    rows[11]["mean_return"] -= 2.0
+    assert "| -10 +- 1 | [-15, -5] | 3 of 3 |" in paired_table(rows, "bc", last=1)
 
 
 def test_run_curves_on_another_pool_of_the_env(tmp_path):

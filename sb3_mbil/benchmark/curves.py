@@ -243,9 +243,12 @@ def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: 
 
 def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
     """Markdown: each variant's final return minus the ``reference`` variant's on the same seeds (same
-    trajectory), mean +- standard error, and on how many seeds it is below."""
+    trajectory), mean +- standard error, its paired 95% confidence interval, and on how many seeds it is below."""
+    from sb3_mbil.benchmark.report import paired_interval
+
     finals = final_returns(rows, last)
-    lines = [f"| env | variant | seeds | final return | minus {reference} | below on |", "|---|---|---|---|---|---|"]
+    lines = [f"| env | variant | seeds | final return | minus {reference} | paired 95% CI | below on |",
+             "|---|---|---|---|---|---|---|"]
     for (env, variant), by_seed in sorted(finals.items()):
         ref = finals.get((env, reference))
         if ref is None or variant == reference:
@@ -255,8 +258,9 @@ def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
         if len(d) == 0:
             continue
         se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
+        ci = "[{:+.0f}, {:+.0f}]".format(*paired_interval(d)) if len(d) > 1 else "-"
         lines.append(f"| {env} | {variant} | {len(d)} | {np.mean([by_seed[s][0] for s in seeds]):.0f} | {d.mean():.0f} +- {se:.0f} | "
-                     f"{int((d < 0).sum())} of {len(d)} |")
+                     f"{ci} | {int((d < 0).sum())} of {len(d)} |")
     return "\n".join(lines)
 
 

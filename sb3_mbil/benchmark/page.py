@@ -14,6 +14,7 @@ from sb3_mbil.benchmark.report import (
     RANDOM_RETURN,
     aggregate,
     expert_returns,
+    paired_interval,
     probability_of_improvement,
     read_rows,
     table,
@@ -56,7 +57,6 @@ def normalised(value: float, env: str, expert: float) -> float:
 def paired_ci_table(rows, reference: str = "bc") -> str:
     """Every algorithm against ``reference`` per (env, N), on the seeds both ran: the mean difference, its paired
     95% confidence interval (Student's t over seeds, scipy) and how many seeds are below."""
-    from scipy import stats
 
     runs = defaultdict(dict)
     for r in rows:
@@ -71,10 +71,7 @@ def paired_ci_table(rows, reference: str = "bc") -> str:
                           if (e, nn) == (env, n) and algo in v and reference in v], dtype=float)
             if len(d) < 2:
                 continue
-            if np.allclose(d, d[0]):
-                lo = hi = float(d[0])
-            else:
-                lo, hi = stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+            lo, hi = paired_interval(d)
             verdict = "below" if hi < 0 else "above" if lo > 0 else "level"
             lines.append(f"| {algo} | {env} | {n} | {len(d)} | {d.mean():+.1f} | [{lo:+.1f}, {hi:+.1f}] | "
                          f"{int((d < 0).sum())} of {len(d)} | {verdict} |")
@@ -156,7 +153,6 @@ def control_section(published_path: str, control_path: str) -> str:
     """The published protocol against its control, per env and N on the shared seeds: BC, MBIL and MBIL-C on the kept
     steps, BC and MBIL-C also given each kept step's next step as a label, and MBIL's paired difference to both BCs
     (95% t intervals over seeds)."""
-    from scipy import stats
 
     title = "## The published protocol against its control"
     if not (os.path.isfile(published_path) and os.path.isfile(control_path)):
@@ -178,7 +174,7 @@ def control_section(published_path: str, control_path: str) -> str:
         diffs = []
         for ref in ("bc", "bc + next"):
             d = v["mbil"] - v[ref]
-            lo, hi = stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+            lo, hi = paired_interval(d)
             diffs.append(f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}]")
         lines.append(f"| {env} | {n} | {len(seeds)} | " + " | ".join(f"{v[c].mean():.1f}" for c in cols) + " | "
                      + " | ".join(diffs) + " |")
@@ -268,11 +264,10 @@ def peers_section(path: str, title: str = "## Peers: d3rlpy's BC beside ours", i
 
 def paired_difference(d: np.ndarray) -> str:
     """Mean of paired differences, its 95% t interval over seeds and how many are above zero."""
-    from scipy import stats
 
     if len(d) < 2:
         return f"{d.mean():+.1f} (one seed)" if len(d) else "-"
-    lo, hi = (d[0], d[0]) if np.allclose(d, d[0]) else stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+    lo, hi = paired_interval(d)
     return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}], above on {int((d > 0).sum())} of {len(d)}"
 
 

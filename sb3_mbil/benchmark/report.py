@@ -23,6 +23,20 @@ PUBLISHED_BC = {
 }
 
 
+def paired_interval(d) -> tuple[float, float]:
+    """The 95% confidence interval of the mean of paired differences ``d`` (Student's t over seeds, scipy); a
+    constant ``d`` gives its value at both ends. At least two differences."""
+    from scipy import stats
+
+    d = np.asarray(d, dtype=float)
+    if len(d) < 2:
+        raise ValueError(f"paired differences: expected at least 2, found {len(d)}")
+    if np.allclose(d, d[0]):
+        return float(d[0]), float(d[0])
+    lo, hi = stats.ttest_rel(d, np.zeros_like(d)).confidence_interval(0.95)
+    return float(lo), float(hi)
+
+
 def read_rows(path: str) -> list[dict]:
     """The grid's rows, typed; a malformed file is refused with its path and line."""
     from sb3_mbil.benchmark.results import read_result_rows
