@@ -494,7 +494,7 @@ def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path)
     out = subprocess.run(cmd + ["--tags", "new", "old", "--paired-against", "bc@old"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
-    assert "| CartPole-v1 | bc@new | 3 | 301 | 200 +- 0 | 0 of 3 |" in out.stdout
+    assert "| CartPole-v1 | bc@new | 3 | 301 | 200 +- 0 | [+200, +200] | 0 of 3 |" in out.stdout
     out = subprocess.run(cmd + ["--tags", "new"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert out.returncode != 0 and "--tags: expected one tag per CSV (2), found 1" in out.stderr
 
