@@ -20,6 +20,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_mbil import ALGORITHMS
 from sb3_mbil.benchmark.grid import git_commit, tuned_settings
+from sb3_mbil.benchmark.report import paired_interval
 from sb3_mbil.benchmark.results import append_rows, finished_keys, settings_by_cell
 
 CURVE_COLUMNS = ["algo", "env", "seed", "gradient_step", "mean_return", "n_episodes", "n_trajectories", "settings", "commit",
@@ -244,8 +245,6 @@ def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: 
 def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
     """Markdown: each variant's final return minus the ``reference`` variant's on the same seeds (same
     trajectory), mean +- standard error, its paired 95% confidence interval, and on how many seeds it is below."""
-    from sb3_mbil.benchmark.report import paired_interval
-
     finals = final_returns(rows, last)
     lines = [f"| env | variant | seeds | final return | minus {reference} | paired 95% CI | below on |",
              "|---|---|---|---|---|---|---|"]

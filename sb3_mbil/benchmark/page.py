@@ -57,7 +57,6 @@ def normalised(value: float, env: str, expert: float) -> float:
 def paired_ci_table(rows, reference: str = "bc") -> str:
     """Every algorithm against ``reference`` per (env, N), on the seeds both ran: the mean difference, its paired
     95% confidence interval (Student's t over seeds, scipy) and how many seeds are below."""
-
     runs = defaultdict(dict)
     for r in rows:
         runs[(r["env"], r["n_trajectories"], r["seed"])][r["algo"]] = r["mean_return"]
@@ -153,7 +152,6 @@ def control_section(published_path: str, control_path: str) -> str:
     """The published protocol against its control, per env and N on the shared seeds: BC, MBIL and MBIL-C on the kept
     steps, BC and MBIL-C also given each kept step's next step as a label, and MBIL's paired difference to both BCs
     (95% t intervals over seeds)."""
-
     title = "## The published protocol against its control"
     if not (os.path.isfile(published_path) and os.path.isfile(control_path)):
         return f"{title}\n\nNo results yet (`{published_path}` and `{control_path}`).\n"
@@ -264,7 +262,6 @@ def peers_section(path: str, title: str = "## Peers: d3rlpy's BC beside ours", i
 
 def paired_difference(d: np.ndarray) -> str:
     """Mean of paired differences, its 95% t interval over seeds and how many are above zero."""
-
     if len(d) < 2:
         return f"{d.mean():+.1f} (one seed)" if len(d) else "-"
     lo, hi = paired_interval(d)
