@@ -362,6 +362,18 @@ def test_paired_table_compares_final_returns_on_shared_seeds():
     assert "| -10 +- 1 | [-15, -5] | 3 of 3 |" in paired_table(rows, "bc", last=1)
 
 
+def test_curve_tables_name_a_single_seed_instead_of_a_spread():
+    """One seed has no spread: the tables say so rather than print '+- 0' or '+- nan'."""
+    from sb3_mbil.benchmark.curves import curve_table, paired_table
+
+    rows = [{"env": "E", "algo": a, "seed": 0, "gradient_step": 1000, "mean_return": ret}
+            for a, ret in (("bc", 100.0), ("odice", 40.0))]
+    curves, paired = curve_table(rows, {"E": 100.0}, last=1), paired_table(rows, "bc", last=1)
+    assert "| E | odice | 40 (one seed) | 0.40 |" in curves
+    assert "| E | odice | 1 | 40 | -60 (one seed) | - | 1 of 1 |" in paired
+    assert "nan" not in curves + paired
+
+
 def test_run_curves_on_another_pool_of_the_env(tmp_path):
     """--pool draws from the given pool, records it in the settings column, and refuses another env's pool."""
     import subprocess

@@ -224,6 +224,15 @@ def final_returns(rows: list[dict], last: int = 10) -> dict[tuple[str, str], dic
     return out
 
 
+def _spread(values: np.ndarray, standard_error: bool = False) -> str:
+    """'mean +- std' (or +- the standard error) over seeds; 'mean (one seed)' when there is no spread to show."""
+    values = np.asarray(values, dtype=float)
+    if len(values) < 2:
+        return f"{values.mean():.0f} (one seed)"
+    spread = values.std(ddof=1) / np.sqrt(len(values)) if standard_error else values.std()
+    return f"{values.mean():.0f} +- {spread:.0f}"
+
+
 def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: int = 10) -> str:
     """Markdown: per (env, variant) the final return (each seed's mean over its last ``last``
     evaluations, then mean +- std over seeds), its share of the expert's return, the best point of
@@ -237,7 +246,7 @@ def curve_table(rows: list[dict], expert: dict[str, float] | None = None, last: 
         best_step = max(curve, key=curve.get)
         final = float(np.mean(finals))
         share = f"{final / expert[env]:.2f}" if expert and env in expert else ""
-        lines.append(f"| {env} | {variant} | {final:.0f} +- {np.std(finals):.0f} | {share} | {curve[best_step]:.0f} ({best_step}) | "
+        lines.append(f"| {env} | {variant} | {_spread(finals)} | {share} | {curve[best_step]:.0f} ({best_step}) | "
                      f"{final - curve[best_step]:.0f} | {len(finals)} | {min(n for _, n in by_seed.values())} |")
     return "\n".join(lines)
 
@@ -256,9 +265,8 @@ def paired_table(rows: list[dict], reference: str, last: int = 10) -> str:
         d = np.array([by_seed[s][0] - ref[s][0] for s in seeds])
         if len(d) == 0:
             continue
-        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
         ci = "[{:+.0f}, {:+.0f}]".format(*paired_interval(d)) if len(d) > 1 else "-"
-        lines.append(f"| {env} | {variant} | {len(d)} | {np.mean([by_seed[s][0] for s in seeds]):.0f} | {d.mean():.0f} +- {se:.0f} | "
+        lines.append(f"| {env} | {variant} | {len(d)} | {np.mean([by_seed[s][0] for s in seeds]):.0f} | {_spread(d, True)} | "
                      f"{ci} | {int((d < 0).sum())} of {len(d)} |")
     return "\n".join(lines)
 
@@ -425,7 +433,6 @@ def heldout_table(rows: list[dict]) -> str:
         final = np.array([max(p)[1] for p in by_seed.values()])
         best = np.array([max(x[1] for x in p) for p in by_seed.values()])
         d = picked - final
-        se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else float("nan")
-        lines.append(f"| {env} | {variant} | {len(d)} | {picked.mean():.0f} +- {picked.std():.0f} | {final.mean():.0f} +- "
-                     f"{final.std():.0f} | {best.mean():.0f} | {d.mean():.0f} +- {se:.0f} |")
+        lines.append(f"| {env} | {variant} | {len(d)} | {_spread(picked)} | {_spread(final)} | {best.mean():.0f} | "
+                     f"{_spread(d, True)} |")
     return "\n".join(lines)
