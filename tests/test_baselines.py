@@ -244,7 +244,7 @@ def test_valuedice_gradient_penalty_holds_nu_near_unit_slope_on_expert_inputs(pe
     assert np.isfinite(logged[-1]["train/gradient_penalty"])
 
 
-def test_valuedice_absorbing_states_and_orthogonal_regulariser():
+def test_valuedice_absorbing_states_and_orthogonal_regulariser(pendulum_data):
     """A terminated episode leads to the absorbing state, which leads to itself with the zero action; a time-limit
     end bootstraps; the orthogonal regulariser is 0 for orthogonal weights and positive otherwise."""
     from sb3_mbil import Trajectory, ValueDICE
@@ -261,11 +261,20 @@ def test_valuedice_absorbing_states_and_orthogonal_regulariser():
     assert float(transitions.next_observations[4].abs().sum()) == 0.0  # the absorbing state's observation part
     th.testing.assert_close(transitions.next_observations[9], th.as_tensor(cut.observations[5]))  # bootstrapped
 
-    layer = th.nn.Linear(4, 4)
-    th.nn.init.orthogonal_(layer.weight)
-    assert float(orthogonal_regulariser(layer)) < 1e-10
-    th.nn.init.normal_(layer.weight)
-    assert float(orthogonal_regulariser(layer)) > 1e-3
+    # The reference's Gram matrix is over a layer's output units (K^T K of a Keras kernel K = W W^T of a torch
+    # weight W): 3 orthonormal output rows cost nothing; 8 output units in 3 inputs cannot be orthogonal.
+    wide = th.nn.init.orthogonal_(th.empty(3, 8))
+    assert float(orthogonal_regulariser([wide])) < 1e-10
+    assert float(orthogonal_regulariser([wide.T.contiguous()])) > 1e-3
+    off_diagonal = wide.T @ wide - th.diag(th.diagonal(wide.T @ wide))
+    th.testing.assert_close(orthogonal_regulariser([wide.T.contiguous()]), off_diagonal.pow(2).sum())
+
+    # The Box actor's output layer is the reference's single Dense(2 * action_dim): mean and log-std rows together.
+    box = ValueDICE("MlpPolicy", "Pendulum-v1", expert_data=pendulum_data, seed=0)
+    weights = box.actor_weights()
+    assert [tuple(w.shape) for w in weights] == [(256, 3), (256, 256), (2, 256)]
+    th.testing.assert_close(weights[-1], th.cat([box.policy.mean_head.weight, box.policy.log_std_head.weight]))
+    assert tuple(model.actor_weights()[-1].shape) == (2, 256)  # CartPole: the logits head alone
 
 
 def test_odice_weighted_bc_recovers_a_linear_gaussian_expert():

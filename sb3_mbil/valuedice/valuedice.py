@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -18,13 +19,17 @@ from sb3_mbil.common.type_aliases import TransitionSamples
 from sb3_mbil.common.validation import check_real, check_sizes
 
 
-def orthogonal_regulariser(module: nn.Module) -> th.Tensor:
-    """Sum over the linear layers of the squared off-diagonal entries of W^T W (ValueDICE's actor regulariser)."""
+def orthogonal_regulariser(weights: Iterable[th.Tensor]) -> th.Tensor:
+    """ValueDICE's actor regulariser: over the layers, the sum of the squared off-diagonal entries of the Gram matrix
+    of the layer's output units.
+
+    The reference (``keras_utils.orthogonal_regularization``) computes ``K^T K`` of each Keras kernel ``K``, whose
+    shape is (inputs, outputs); a torch weight ``W`` is (outputs, inputs), so the same matrix is ``W W^T``.
+    """
     total = th.zeros(())
-    for layer in module.modules():
-        if isinstance(layer, nn.Linear):
-            gram = layer.weight.T @ layer.weight
-            total = total + (gram - th.diag(th.diagonal(gram))).pow(2).sum()
+    for weight in weights:
+        gram = weight @ weight.T
+        total = total + (gram - th.diag(th.diagonal(gram))).pow(2).sum()
     return total
 
 
@@ -54,7 +59,10 @@ class ValueDICE(OfflineAlgorithm):
     Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings), orthogonal
     initialisation; tanh-Gaussian actor (its mean squashed into the action bounds: ``predict``
     returns the squashed mean), log-std in [-5, 2]; Adam 1e-3 (nu) and 1e-5 (actor), batch 256, gamma 0.99,
-    orthogonal regulariser 1e-4; states standardised with the expert's statistics.
+    orthogonal regulariser 1e-4 (:func:`orthogonal_regulariser` over :meth:`actor_weights`); states standardised with
+    the expert's statistics. Deviations from the reference code: the log-std is clamped to [-5, 2] where the
+    reference maps it there through a tanh; minibatches are drawn with replacement and the initial states are a
+    second draw of expert states (the reference reuses the minibatch's states).
 
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
@@ -171,6 +179,14 @@ class ValueDICE(OfflineAlgorithm):
         return self._expert_cache[key]
 
     # ------------------------------------------------------------------ networks
+    def actor_weights(self) -> list[th.Tensor]:
+        """The actor's layers as the reference's trunk has them: the hidden layers, then one output layer (for Box the
+        mean and log-std heads stacked, the reference's single ``Dense(2 * action_dim)``)."""
+        hidden = [layer.weight for layer in self.policy.latent.modules() if isinstance(layer, nn.Linear)]
+        if self._discrete:
+            return [*hidden, self.policy.logits_head.weight]
+        return [*hidden, th.cat([self.policy.mean_head.weight, self.policy.log_std_head.weight])]
+
     def _action_features(self, actions: th.Tensor) -> th.Tensor:
         """Actions as nu's input: one-hot (Discrete) or flat (Box)."""
         if self._discrete:
@@ -219,7 +235,7 @@ class ValueDICE(OfflineAlgorithm):
         objective = nonlinear - linear
 
         # The actor's orthogonal regulariser.
-        orthogonal = orthogonal_regulariser(self.policy)
+        orthogonal = orthogonal_regulariser(self.actor_weights())
 
         # nu's gradient penalty (optional): E[(||grad_x nu(x)|| - 1)^2] at x between two expert inputs of the
         # batch, at (s, a) and at (s', a' ~ pi) (the reference interpolates expert and replay inputs).
