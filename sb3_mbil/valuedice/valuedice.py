@@ -51,11 +51,12 @@ class ValueDICE(OfflineAlgorithm):
     Absorbing states: the states get an indicator dimension; a transition that ends an episode by
     termination (not by the time limit) leads to the absorbing state, which leads to itself with a zero
     action; time-limit ends bootstrap as usual. pi is never asked to act in the absorbing state (its
-    action there is the zero action). The gradient penalty of the paper (on interpolates of expert and
-    replay samples) has no replay samples to work with offline; by default it is left out, as DeepMind's Acme
-    does offline. With ``gradient_penalty`` > 0 it interpolates pairs of expert inputs of the minibatch instead
-    (at (s, a) and at (s', a' ~ pi), where the reference pairs them with replay inputs), adding
-    ``gradient_penalty * E[(||grad_x nu(x)|| - 1)^2]`` to nu's loss (the reference's weight is 10).
+    action there is the zero action). The gradient penalty of the paper interpolates expert and replay inputs;
+    offline there are no replay inputs, and the public offline port of the reference code that we could read
+    (gkswamy98/valuedice, the classic-control setting: Gumbel-softmax actor, 2x64 networks) keeps the penalty at
+    its weight 10 and interpolates each expert input (s, a) with a shuffled (s', a' ~ pi) of the same minibatch.
+    So does this class: ``gradient_penalty * E[(||grad_x nu(x)|| - 1)^2]`` is added to nu's loss (weight 10 by
+    default; 0 drops it, as DeepMind's Acme does offline).
     Networks: nu and the actor 2x256 ReLU (Box; 2x64 for Discrete, set in the zoo settings), orthogonal
     initialisation; tanh-Gaussian actor (its mean squashed into the action bounds: ``predict``
     returns the squashed mean), log-std in [-5, 2]; Adam 1e-3 (nu) and 1e-5 (actor), batch 256, gamma 0.99,
@@ -73,7 +74,7 @@ class ValueDICE(OfflineAlgorithm):
     :param nu_learning_rate: Adam learning rate of nu
     :param nu_arch: hidden sizes of nu
     :param orthogonal_weight: weight of the actor's orthogonal regulariser
-    :param gradient_penalty: weight of nu's gradient penalty on interpolates of expert inputs (0: none)
+    :param gradient_penalty: weight of nu's gradient penalty between (s, a) and (s', a' ~ pi) inputs (0: none)
     :param gumbel_temperature: (Discrete) temperature of the Gumbel-softmax samples
     :param weight_decay: Adam weight decay of the actor
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
@@ -99,7 +100,7 @@ class ValueDICE(OfflineAlgorithm):
         nu_learning_rate: float = 1e-3,
         nu_arch: list[int] | tuple[int, ...] = (256, 256),
         orthogonal_weight: float = 1e-4,
-        gradient_penalty: float = 0.0,
+        gradient_penalty: float = 10.0,
         gumbel_temperature: float = 1.0,
         weight_decay: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
@@ -237,14 +238,13 @@ class ValueDICE(OfflineAlgorithm):
         # The actor's orthogonal regulariser.
         orthogonal = orthogonal_regulariser(self.actor_weights())
 
-        # nu's gradient penalty (optional): E[(||grad_x nu(x)|| - 1)^2] at x between two expert inputs of the
-        # batch, at (s, a) and at (s', a' ~ pi) (the reference interpolates expert and replay inputs).
+        # nu's gradient penalty: E[(||grad_x nu(x)|| - 1)^2] at x = u (s, a) + (1 - u) (s', a' ~ pi) of a shuffled
+        # row of the batch, u ~ U(0, 1) per row (the offline reference's pairing; pi gets no gradient from it).
         penalty = th.zeros((), device=self.device)
         if self.gradient_penalty > 0:
-            inputs = th.stack([expert_inputs, next_inputs]).detach()
-            pairs_with = th.randperm(inputs.shape[1], device=self.device)
-            mix = th.rand(1, inputs.shape[1], 1, device=self.device)
-            between = (mix * inputs + (1.0 - mix) * inputs[:, pairs_with]).flatten(0, 1).requires_grad_(True)
+            partner = next_inputs.detach()[th.randperm(len(next_inputs), device=self.device)]
+            mix = th.rand(len(partner), 1, device=self.device)
+            between = (mix * expert_inputs.detach() + (1.0 - mix) * partner).requires_grad_(True)
             (grad_x,) = th.autograd.grad(self._nu(between).sum(), between, create_graph=True)
             penalty = (grad_x.norm(dim=1) - 1.0).pow(2).mean()
 
