@@ -14,3 +14,9 @@ python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 100000 -
 # ValueDICE's gradient penalty (the reference's weight 10), on interpolates of expert inputs: does it steady nu offline?
 python scripts/run_curves.py --envs Hopper-v4 --seeds 100-102 --updates 100000 --eval-every 10000 --episodes 10 --local \
   --csv results/tuning/valuedice_hopper_1e5.csv --variants '{"valuedice_gp10": ["valuedice", {"gradient_penalty": 10.0}]}'
+# ValueDICE after the regulariser fix (eb3b406), without and with the offline gradient penalty (the default since
+# 54ee957), 50 000 updates, tuning seeds 100-101 (results/tuning/baselines_hopper.md, last section).
+python scripts/run_curves.py --envs Hopper-v4 --seeds 100-101 --updates 50000 --eval-every 5000 --episodes 10 --local \
+  --csv results/tuning/valuedice_orth_hopper.csv --variants '{"valuedice": ["valuedice", {"gradient_penalty": 0.0}]}'
+python scripts/run_curves.py --envs Hopper-v4 --seeds 100-101 --updates 50000 --eval-every 5000 --episodes 10 --local \
+  --csv results/tuning/valuedice_gp_hopper.csv --variants '{"valuedice": ["valuedice", {}]}'
