@@ -4,7 +4,7 @@
 # Stage 1 (run): its learning curve on CartPole-v1, one full trajectory, tuning seed 100, at the reference learning
 # rate and at 1e-4 (results/tuning/valuedice_cartpole_curve.csv; python scripts/curve_summary.py
 # results/tuning/valuedice_cartpole_curve.csv --last 10).
-# Stage 2 (run): actor lr 1e-4 and 1e-3 against the reference 1e-5 (all at the zoo's classic-control 1e4 updates, the
+# Stage 2 (run): actor lr 1e-5 (the reference), 1e-4 and 1e-3, then no gradient penalty at 1e-4 (all at the zoo's classic-control 1e4 updates, the
 # published comparison's) on the published protocol, the three envs, N = 1 and 3, tuning seeds 100-102; adopted only
 # if above by the rule of docs/benchmarks_notes.md (ValueDICE failed the published check on Acrobot-v1 and
 # LunarLander-v3 there). Summary, pooled over the 18 draws:
@@ -16,10 +16,14 @@ case "${1:-1}" in
        --envs CartPole-v1 --seeds 100 --updates 100000 --eval-every 10000 --episodes 20 \
        --csv results/tuning/valuedice_cartpole_curve.csv ;;
   2) COMMON="--algos valuedice --envs CartPole-v1 Acrobot-v1 LunarLander-v3 --n-trajectories 1 3 --seeds 100-102 --episodes 100 --protocol published --num-cpus ${NUM_CPUS:-2}"
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_published.csv
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_published.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.00001}}'
      python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_published.csv \
        --overrides '{"valuedice": {"learning_rate": 0.0001}}'
      python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-3_published.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.001}}' ;;
+       --overrides '{"valuedice": {"learning_rate": 0.001}}'
+     # the offline gradient penalty (the class default, 10, since 54ee957) against none, at the zoo's 1e-4
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_published.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}' ;;
   *) echo "usage: bash scripts/tune_valuedice.sh 1|2" >&2; exit 2 ;;
 esac
