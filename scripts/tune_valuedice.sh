@@ -9,6 +9,10 @@
 # if above by the rule of docs/benchmarks_notes.md (ValueDICE failed the published check on Acrobot-v1 and
 # LunarLander-v3 there). Summary, pooled over the 18 draws:
 #   python scripts/tuning_summary.py results/tuning/valuedice_*published.csv
+# Stage 3 (run): stage 2's four arms again on whole trajectories, the published comparison's ValueDICE data (it ran the
+# google-research value_dice code, CKIL's appendix C.1; its data_utils keep every step). Stage 2 ran on BC's every-20th
+# rate, which our published protocol gave ValueDICE before. Same draws, same rule:
+#   python scripts/tuning_summary.py results/tuning/valuedice_*whole.csv
 set -euo pipefail
 cd "$(dirname "$0")/.."
 case "${1:-1}" in
@@ -25,5 +29,14 @@ case "${1:-1}" in
      # the offline gradient penalty (the class default, 10, since 54ee957) against none, at the zoo's 1e-4
      python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_published.csv \
        --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}' ;;
-  *) echo "usage: bash scripts/tune_valuedice.sh 1|2" >&2; exit 2 ;;
+  3) COMMON="--algos valuedice --envs CartPole-v1 Acrobot-v1 LunarLander-v3 --n-trajectories 1 3 --seeds 100-102 --episodes 100 --protocol published ${CURVE_RUNNER:---num-cpus ${NUM_CPUS:-2}}"
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_whole.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}'
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-5_whole.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.00001, "gradient_penalty": 10.0}}'
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_whole.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 10.0}}'
+     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-3_whole.csv \
+       --overrides '{"valuedice": {"learning_rate": 0.001, "gradient_penalty": 10.0}}' ;;
+  *) echo "usage: bash scripts/tune_valuedice.sh 1|2|3" >&2; exit 2 ;;
 esac
