@@ -85,6 +85,7 @@ def test_published_rates_follow_the_reference_codes():
     assert published_every("iq_learn", "Acrobot-v1") == 5
     assert published_every("avril", "CartPole-v1") == 1
     assert published_every("valuedice", "LunarLander-v3") == 1  # the value_dice code keeps whole trajectories
+    assert published_every("dsfn", "Acrobot-v1") == 1  # so does the DSFN code
     assert published_every("mbil", "Acrobot-v1") == published_every("bc", "Acrobot-v1")
     full = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="full")
     pub = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published")

@@ -5,8 +5,9 @@
   handling. BC, EDM and RCAL keep every 20th step (EDM's code). IQ-Learn keeps every 20th step on CartPole and every
   5th on Acrobot and LunarLander (its scripts). AVRIL keeps full trajectories. So does ValueDICE: the published
   comparison ran the google-research ``value_dice`` code (CKIL's appendix C.1), whose ``data_utils`` draws whole
-  trajectories and keeps every step (our rows before this used BC's rate). DSFN's classic-control data handling is
-  not documented; it gets BC's rate. MBIL and its variants use the same kept steps as BC, each with
+  trajectories and keeps every step (our rows before this used BC's rate). So does DSFN: the comparison ran
+  dtak/batch-apprenticeship-learning (CKIL's appendix C.6), which keeps every step (its two data bugs are not
+  copied; see :class:`sb3_mbil.DSFN`). For these, ``published`` holds the same data as ``full``. MBIL and its variants use the same kept steps as BC, each with
   its true successor (s', a'). Each trajectory's subsampling starts at its own random step, as in the GAIL codes'
   ``ExpertDataset`` (IQ-Learn's at step 0, as in its code). EDM's code also starts at step 0, on trajectories that its
   PPO and A2C experts recorded with sampled actions. Our pools hold the experts' deterministic actions, and from step 0
@@ -28,9 +29,9 @@ PROTOCOLS = ("full", "published", "published_next")
 
 #: keep every k-th step on the ``published`` protocol: per algorithm, one rate or a rate per env
 PUBLISHED_EVERY: dict[str, int | dict[str, int]] = {
-    "bc": 20, "edm": 20, "rcal": 20, "dsfn": 20,
+    "bc": 20, "edm": 20, "rcal": 20,
     "iq_learn": {"CartPole-v1": 20, "Acrobot-v1": 5, "LunarLander-v3": 5},
-    "avril": 1, "valuedice": 1,
+    "avril": 1, "valuedice": 1, "dsfn": 1,
 }
 #: the default for algorithms not listed (MBIL and its variants): BC's rate
 DEFAULT_EVERY = 20

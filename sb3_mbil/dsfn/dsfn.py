@@ -52,7 +52,11 @@ class DSFN(OfflineAlgorithm):
     2x64 ELU networks and batch 64 (the comparison's common settings); hard target updates every 500 steps
     (the reference's successor-feature network). Deviations: Abbeel and Ng's projection formula (the
     reference code's parenthesisation of it differs), no early stop on held-out action matching, and the
-    time-limit normalisation of mu_E above.
+    time-limit normalisation of mu_E above. Two data bugs of the reference code are not copied: its warm start
+    reads the N trajectories through a ``flatten`` that returns inside its loop, so only the first trajectory is
+    filled and the other N - 1 are rows of zeros (then it trains on the first 70% of the rows); and its
+    apprenticeship stage reads every trajectory of the expert file whatever N is. Here every stage uses the N
+    trajectories given, every step of each (as the reference keeps every step).
 
     :param policy: ``"MlpPolicy"`` or a policy class
     :param env: the env or its id (spaces and evaluation only; never stepped while learning)
