@@ -86,6 +86,9 @@ def test_published_rates_follow_the_reference_codes():
     assert published_every("avril", "CartPole-v1") == 1
     assert published_every("valuedice", "LunarLander-v3") == 1  # the value_dice code keeps whole trajectories
     assert published_every("dsfn", "Acrobot-v1") == 1  # so does the DSFN code
+    # a rate of 1 keeps the trajectories whole (DSFN's feature expectations are sums along each trajectory)
+    whole = demonstrations_for("dsfn", "Acrobot-v1", 2, seed=0, protocol="published")
+    assert len(whole) == 2 and "subsampled" not in whole.metadata
     assert published_every("mbil", "Acrobot-v1") == published_every("bc", "Acrobot-v1")
     full = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="full")
     pub = demonstrations_for("bc", "CartPole-v1", 2, seed=0, protocol="published")

@@ -60,7 +60,8 @@ def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, p
     pool by default), whole (``full``) or subsampled at the algorithm's published rate (``published``)."""
     protocol = check_choice("protocol", protocol, PROTOCOLS)
     demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
-    if protocol == "full":
+    if protocol == "full" or (protocol == "published" and published_every(algo, env_id) == 1):
+        # whole trajectories, not one-step pieces: DSFN's feature expectations run over each trajectory's steps
         return demos
     return demos.subsample(published_every(algo, env_id), published_start(algo), with_next=protocol == "published_next",
                            seed=seed)
