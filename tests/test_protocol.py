@@ -161,3 +161,18 @@ def test_the_grid_records_where_subsampling_starts_and_refuses_to_mix_starts(tmp
     with pytest.raises(ValueError, match="write the new runs to another CSV"):
         check_grid_settings([Run("bc", "Acrobot-v1", 1, 0)], str(path), protocol="published")
     check_grid_settings([Run("mbil", "Acrobot-v1", 1, 0)], str(path), protocol="published")  # no rows of its own
+
+
+@pytest.mark.parametrize("algo", ["valuedice", "avril"])
+def test_one_step_pieces_train_like_whole_trajectories(algo):
+    """ValueDICE's and AVRIL's published rows before the rate-1 shortcut trained on one-step pieces
+    (``subsample(1)``); they are the same runs as on the whole trajectories, a terminated episode included."""
+    whole = load_demonstrations("LunarLander-v3").sample(2, seed=3)
+    pieces = whole.subsample(1, "random", seed=3)
+    assert len(pieces) == whole.n_steps > len(whole)
+    params = []
+    for data in (whole, pieces):
+        model = ALGORITHMS[algo]("MlpPolicy", "LunarLander-v3", expert_data=data, batch_size=32, seed=0)
+        model.learn(30)
+        params.append(th.cat([p.detach().flatten() for p in model.policy.parameters()]))
+    assert th.equal(params[0], params[1])
