@@ -15,28 +15,24 @@
 #   python scripts/tuning_summary.py results/tuning/valuedice_*whole.csv
 set -euo pipefail
 cd "$(dirname "$0")/.."
+COMMON="--algos valuedice --envs CartPole-v1 Acrobot-v1 LunarLander-v3 --n-trajectories 1 3 --seeds 100-102 --episodes 100 --protocol published ${CURVE_RUNNER:---num-cpus ${NUM_CPUS:-2}}"
+four_arms() {  # $1: the file suffix; actor lr 1e-5 (the reference), 1e-4 and 1e-3 with the penalty, 1e-4 without it
+  python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_$1.csv \
+    --overrides '{"valuedice": {"learning_rate": 0.00001, "gradient_penalty": 10.0}}'
+  for lr in 1e-4 1e-3; do
+    python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr${lr}_$1.csv \
+      --overrides "{\"valuedice\": {\"learning_rate\": $lr, \"gradient_penalty\": 10.0}}"
+  done
+  python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_$1.csv \
+    --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}'
+}
 case "${1:-1}" in
   1) python scripts/run_curves.py --local --variants '{"valuedice": ["valuedice", {}], "valuedice_lr1e-4": ["valuedice", {"learning_rate": 0.0001}]}' \
        --envs CartPole-v1 --seeds 100 --updates 100000 --eval-every 10000 --episodes 20 \
        --csv results/tuning/valuedice_cartpole_curve.csv ;;
-  2) COMMON="--algos valuedice --envs CartPole-v1 Acrobot-v1 LunarLander-v3 --n-trajectories 1 3 --seeds 100-102 --episodes 100 --protocol published --num-cpus ${NUM_CPUS:-2}"
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_published.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.00001}}'
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_published.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.0001}}'
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-3_published.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.001}}'
-     # the offline gradient penalty (the class default, 10, since 54ee957) against none, at the zoo's 1e-4
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_published.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}' ;;
-  3) COMMON="--algos valuedice --envs CartPole-v1 Acrobot-v1 LunarLander-v3 --n-trajectories 1 3 --seeds 100-102 --episodes 100 --protocol published ${CURVE_RUNNER:---num-cpus ${NUM_CPUS:-2}}"
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_gp0_whole.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 0.0}}'
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-5_whole.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.00001, "gradient_penalty": 10.0}}'
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-4_whole.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.0001, "gradient_penalty": 10.0}}'
-     python scripts/benchmark.py $COMMON --csv results/tuning/valuedice_lr1e-3_whole.csv \
-       --overrides '{"valuedice": {"learning_rate": 0.001, "gradient_penalty": 10.0}}' ;;
+  # stage 2 ran at 54ee957, when the published protocol gave ValueDICE every 20th step (its rows say so: every 20);
+  # from 489f240 on the same command runs on whole trajectories, so reproduce it from a checkout of 54ee957
+  2) four_arms published ;;
+  3) four_arms whole ;;
   *) echo "usage: bash scripts/tune_valuedice.sh 1|2|3" >&2; exit 2 ;;
 esac
