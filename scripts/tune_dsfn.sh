@@ -4,9 +4,9 @@
 # successor-feature steps: 900 000 steps) one run takes 30-60 min here, and the three Figure 3 grids hold about 300
 # DSFN runs. This measures the reference schedule against one ten times shorter on tuning seeds (>= 100) with one
 # trajectory, on the published protocol, which for DSFN keeps every step (the reference code's data handling), so the
-# same data as full trajectories. The short schedule
-# replaces the reference one in the grid only if it is level with it (paired difference within two standard errors
-# on every cell); otherwise DSFN stays at its reference settings with the seeds the compute allows.
+# same data as full trajectories. The short schedule replaces the reference one in the grid only if it is level with
+# it (paired difference within two standard errors on every cell); otherwise DSFN stays at its reference settings with
+# the seeds the compute allows.
 # Resumable: rerun to finish; then
 #   python scripts/tuning_summary.py results/tuning/dsfn_short_published.csv results/tuning/dsfn_reference_published.csv
 #   bash scripts/tune_dsfn.sh              # the published protocol (where DSFN's published values are)

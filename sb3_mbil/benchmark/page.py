@@ -286,8 +286,7 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "Each baseline's own code's subsampling (`--protocol published`, `sb3_mbil.benchmark.protocol`): "
                      "every 20th step for BC, EDM, RCAL, MBIL and MBIL-C, IQ-Learn every 20th step "
                      "on CartPole and every 5th on Acrobot and LunarLander, AVRIL, ValueDICE and DSFN full "
-                     "trajectories; "
-                     "5 seeds.", published=True, plots=plots),
+                     "trajectories; 5 seeds.", published=True, plots=plots),
         grid_section("Figure 3: the published protocol, ValueDICE on every 20th step (superseded)",
                      "results/classic_control_published_valuedice_every20.csv", reps,
                      "ValueDICE's earlier rows, on BC's every-20th rate; the published comparison ran the "

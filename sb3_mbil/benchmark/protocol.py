@@ -7,10 +7,11 @@
   comparison ran the google-research ``value_dice`` code (CKIL's appendix C.1), whose ``data_utils`` draws whole
   trajectories and keeps every step (our rows before this used BC's rate). So does DSFN: the comparison ran
   dtak/batch-apprenticeship-learning (CKIL's appendix C.6), which keeps every step (its two data bugs are not
-  copied; see :class:`sb3_mbil.DSFN`). For these, ``published`` holds the same data as ``full``. MBIL and its variants use the same kept steps as BC, each with
-  its true successor (s', a'). Each trajectory's subsampling starts at its own random step, as in the GAIL codes'
-  ``ExpertDataset`` (IQ-Learn's at step 0, as in its code). EDM's code also starts at step 0, on trajectories that its
-  PPO and A2C experts recorded with sampled actions. Our pools hold the experts' deterministic actions, and from step 0
+  copied; see :class:`sb3_mbil.DSFN`). For these, ``published`` holds the same data as ``full``, the trajectories
+  whole. MBIL and its variants use the same kept steps as BC, each with its true successor (s', a'). Each
+  trajectory's subsampling starts at its own random step, as in the GAIL codes' ``ExpertDataset`` (IQ-Learn's at
+  step 0, as in its code). EDM's code also starts at step 0, on trajectories that its PPO and A2C experts recorded
+  with sampled actions. Our pools hold the experts' deterministic actions, and from step 0
   their kept states of Acrobot-v1 sit at one phase of the swing in every trajectory, so BC never swings up. Random
   starts stand in for the spread that sampled actions give (``results/tuning/subsample_offset_sampled.csv``).
 - ``published_next``: a control for ``published``: each kept step and its next step, both as labelled (s, a) pairs,
