@@ -12,7 +12,9 @@
 #   bash scripts/tune_dsfn.sh              # the published protocol (where DSFN's published values are)
 #   bash scripts/tune_dsfn.sh full         # full trajectories (the same data for DSFN; kept for other rates)
 # results/tuning/dsfn_short_published_every20.csv: the first short-schedule rows, on BC's every-20th rate (DSFN's published
-# protocol before it moved to whole trajectories, the reference code's).
+# protocol before it moved to whole trajectories, the reference code's). results/tuning/dsfn_*_published_sftarget500.csv:
+# rows whose successor features bootstrapped from a target copied every 500 steps, which left mu_i at a fraction of
+# mu_E's scale (see DSFN's docstring); the successor features now bootstrap from the current network, as the reference's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNNER=${CURVE_RUNNER:-"--num-cpus ${NUM_CPUS:-2}"}

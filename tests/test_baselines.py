@@ -21,8 +21,8 @@ class SharpMDP(DiscreteActionMDP):
     W = DiscreteActionMDP.W * 10
 
 
-# Enough steps for each method on this small problem. DSFN: a discount and target-update rate with which its
-# successor features converge inside the phase (with gamma 0.99 their scale error swamps the margins).
+# Enough steps for each method on this small problem. DSFN: a discount with which its successor features converge
+# inside these short phases (test_dsfn_successor_features_reach_the_expert_scale checks gamma 0.99).
 BEHAVIOUR = {
     "mbil": dict(flow_max_steps=200),
     "edm": dict(sgld_steps=5),
@@ -115,6 +115,18 @@ def test_dsfn_margin_shrinks_across_iterations(sharp):
     n = model.num_timesteps
     model.learn(100, reset_num_timesteps=False)
     assert model.num_timesteps == n
+
+
+def test_dsfn_successor_features_reach_the_expert_scale(sharp):
+    """With gamma 0.99, mu_0 (the warm-start policy, which matches the expert here) comes out near mu_E after one
+    successor-feature phase. A target network copied every 500 steps would leave psi at one step of horizon per copy
+    and mu_0 at a few percent of mu_E's scale (a margin of about ||mu_E||), whatever the policy."""
+    mdp, data, _, _ = sharp
+    model = DSFN("MlpPolicy", mdp.make_env(), expert_data=data, warm_start_steps=1000, sf_steps=3000, dqn_steps=10,
+                 max_iterations=1, seed=0)
+    model.learn(4000)
+    assert len(model.margins) == 1
+    assert model.margins[0] < 0.4 * float(model.state.mu_expert.norm())
 
 
 def test_dsfn_phase_cache_holds_what_each_minibatch_would_compute(sharp):

@@ -49,8 +49,12 @@ class DSFN(OfflineAlgorithm):
 
     Defaults are the reference settings (CKIL appendix): warm start 50 000 steps, DQN 2x64 30 000 steps,
     successor features 2x64 50 000 steps, Adam 3e-4, gamma 0.99, at most 10 iterations, precision 0.01;
-    2x64 ELU networks and batch 64 (the comparison's common settings); hard target updates every 500 steps
-    (the reference's successor-feature network). Deviations: Abbeel and Ng's projection formula (the
+    2x64 ELU networks and batch 64 (the comparison's common settings). The DQN's target network is copied every
+    500 steps (the reference's ``baselines`` deepq). The successor features bootstrap from the current network
+    (``sf_target_update_interval = 1``): the reference's successor-feature "target" is built in the same variable
+    scope with ``AUTO_REUSE``, so it is the online network and its update every 500 steps changes nothing. A target
+    copied every 500 steps would cap psi's horizon at one step per copy: 10 copies in a 5 000-step phase give
+    about 1 - 0.99^10 = 10% of the scale of mu_E, which swamps the distances that pick the policy. Deviations: Abbeel and Ng's projection formula (the
     reference code's parenthesisation of it differs), no early stop on held-out action matching, and the
     time-limit normalisation of mu_E above. Two data bugs of the reference code are not copied: its warm start
     reads the N trajectories through a ``flatten`` that returns inside its loop, so only the first trajectory is
@@ -69,7 +73,9 @@ class DSFN(OfflineAlgorithm):
     :param sf_steps: successor-feature steps per iteration
     :param max_iterations: apprenticeship iterations at most
     :param tolerance: stop when the margin ||mu_E - mu_bar|| is below this
-    :param target_update_interval: steps between hard target-network updates (DQN and successor features)
+    :param target_update_interval: steps between hard updates of the DQN's target network
+    :param sf_target_update_interval: steps between hard updates of the successor features' target network (1: the
+        TD target uses the current network, as in the reference)
     :param sf_arch: hidden sizes of the successor-feature network
     :param weight_decay: Adam weight decay
     :param policy_kwargs: policy keyword arguments (``net_arch``, ...)
@@ -101,6 +107,7 @@ class DSFN(OfflineAlgorithm):
         max_iterations: int = 10,
         tolerance: float = 0.01,
         target_update_interval: int = 500,
+        sf_target_update_interval: int = 1,
         sf_arch: list[int] | tuple[int, ...] = (64, 64),
         weight_decay: float = 0.0,
         policy_kwargs: dict[str, Any] | None = None,
@@ -122,6 +129,7 @@ class DSFN(OfflineAlgorithm):
         self.max_iterations = max_iterations
         self.tolerance = tolerance
         self.target_update_interval = target_update_interval
+        self.sf_target_update_interval = sf_target_update_interval
         self.sf_arch = sf_arch
         if _init_setup_model:
             self._setup_model()
@@ -130,7 +138,8 @@ class DSFN(OfflineAlgorithm):
     def _check_hyperparameters(self) -> None:
         super()._check_hyperparameters()
         self.gamma = check_real("gamma", self.gamma, low=0.0, high=1.0, high_open=True)
-        for name in ("warm_start_steps", "dqn_steps", "sf_steps", "max_iterations", "target_update_interval"):
+        for name in ("warm_start_steps", "dqn_steps", "sf_steps", "max_iterations", "target_update_interval",
+                     "sf_target_update_interval"):
             setattr(self, name, check_int(name, getattr(self, name), low=1))
         self.tolerance = check_real("tolerance", self.tolerance, low=0.0)
         self.sf_arch = check_sizes("sf_arch", self.sf_arch)
@@ -261,14 +270,16 @@ class DSFN(OfflineAlgorithm):
         transitions, cache = self.expert_transitions(), self._phase_cache()
         i = self._sample_indices(len(transitions.observations))
         batch = take(transitions, i)
+        # an interval of 1 bootstraps from the current network itself (the same values as a copy at every step)
+        target_net = self.successor if self.sf_target_update_interval == 1 else self.successor_target
         with th.no_grad():
-            next_psi = (cache["next_policy"][i].unsqueeze(-1) * self.psi(self.successor_target, batch.next_observations)).sum(1)
+            next_psi = (cache["next_policy"][i].unsqueeze(-1) * self.psi(target_net, batch.next_observations)).sum(1)
             target = cache["phi"][i] + self.gamma * (1 - batch.dones).view(-1, 1) * next_psi
         psi = self.psi(self.successor, batch.observations)[th.arange(len(batch.actions)), batch.actions]
         loss = (psi - target).pow(2).sum(-1).mean()
         self._step(self.successor.optimizer, loss)
         self._record("train/successor_loss", loss)
-        if int(self.state.phase_step) % self.target_update_interval == 0:
+        if self.sf_target_update_interval > 1 and int(self.state.phase_step) % self.sf_target_update_interval == 0:
             self.successor_target.load_state_dict(self.successor.state_dict())
 
     def _dqn_step(self) -> None:
