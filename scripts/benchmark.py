@@ -37,6 +37,9 @@ def main(argv=None):
                    help="full trajectories, every k-th step at each algorithm's published rate, or (a control) every "
                         "k-th step and its next step")
     p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
+    p.add_argument("--reuse", default=None, metavar="CSV",
+                   help="first copy the rows of another grid's CSV whose runs these would repeat: the same key, data and "
+                        "settings (AVRIL, ValueDICE and DSFN see whole trajectories under full and published)")
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
     p.add_argument("--local", action="store_true", help="run without Ray, one run after the other")
@@ -56,9 +59,12 @@ def main(argv=None):
         pool = {e: pool_name(e, SECOND_EXPERTS[e]) for e in a.envs}
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     from sb3_mbil.benchmark.grid import make_grid
-    from sb3_mbil.benchmark.runner import run_local, run_ray
+    from sb3_mbil.benchmark.runner import reuse_rows, run_local, run_ray
 
     grid = make_grid(a.algos, a.envs, a.n_trajectories, a.seeds)
+    if a.reuse:
+        n = reuse_rows(grid, a.csv, a.reuse, a.episodes, a.overrides, pool=pool, protocol=a.protocol)
+        print(f"{n} rows reused from {a.reuse}")
     if a.local:
         n = run_local(grid, a.csv, a.episodes, a.overrides, pool=pool, protocol=a.protocol)
     else:

@@ -57,6 +57,38 @@ def test_published_protocol_and_second_expert_are_named_in_the_rows(tmp_path):
             assert "('expert_pool', 'CartPole-v1-ppo')" in row["settings"]
 
 
+def test_rows_of_runs_on_the_same_data_are_reused_not_rerun(tmp_path):
+    """AVRIL sees whole trajectories under both protocols: its published row is the full grid's row (the same
+    result when run again), copied with the full grid's settings and its source named; BC's every-20th row is not."""
+    from sb3_mbil.benchmark.grid import run_one, settings_column
+    from sb3_mbil.benchmark.results import append_rows
+    from sb3_mbil.benchmark.runner import reuse_rows
+
+    tiny = {**TINY, "avril": {"n_timesteps": 20}}
+    source, out = tmp_path / "published.csv", tmp_path / "full.csv"
+    grid = make_grid(["avril", "bc"], ["CartPole-v1"], [1], [0])
+    assert run_local(grid, str(source), n_episodes=2, overrides=tiny, protocol="published") == 2
+    # a file written before the reused_from column: the column is added, its rows kept
+    old = {c: "x" for c in RESULT_COLUMNS[:-1]}
+    append_rows(out, [{**old, "algo": "bc", "seed": "7"}], RESULT_COLUMNS[:-1])
+    # other settings, or another number of evaluation episodes, is another run
+    assert reuse_rows(grid, str(out), str(source), 2, {**tiny, "avril": {"n_timesteps": 30}}) == 0
+    assert reuse_rows(grid, str(out), str(source), 3, tiny) == 0
+    assert reuse_rows(grid, str(out), str(source), 2, tiny) == 1
+    rows = rows_of(out)
+    assert list(rows[0]) == RESULT_COLUMNS and rows[0]["seed"] == "7" and rows[0]["reused_from"] == ""
+    copied, original = rows[1], next(r for r in rows_of(source) if r["algo"] == "avril")
+    assert copied["reused_from"] == "published.csv" and copied["protocol"] == "full"
+    assert copied["settings"] == settings_column("avril", "CartPole-v1", tiny) != original["settings"]
+    assert copied["mean_return"] == original["mean_return"] and copied["commit"] == original["commit"]
+    rerun = run_one(grid[0], n_episodes=2, overrides=tiny, protocol="full")
+    assert rerun["mean_return"] == float(original["mean_return"])
+    # the full grid then runs only what it could not reuse, and a second pass copies nothing twice
+    assert reuse_rows(grid, str(out), str(source), 2, tiny) == 0
+    assert run_local(grid, str(out), n_episodes=2, overrides=tiny) == 1
+    assert sorted(r["algo"] for r in rows_of(out)) == ["avril", "bc", "bc"]
+
+
 def test_ray_grid(tmp_path):
     out = tmp_path / "r.csv"
     grid = [Run("mbil", "CartPole-v1", 1, 0), Run("bc", "CartPole-v1", 1, 0)]

@@ -163,6 +163,18 @@ def test_the_grid_records_where_subsampling_starts_and_refuses_to_mix_starts(tmp
     check_grid_settings([Run("mbil", "Acrobot-v1", 1, 0)], str(path), protocol="published")  # no rows of its own
 
 
+def test_same_data_means_whole_trajectories_under_both_protocols():
+    from sb3_mbil.benchmark.protocol import same_data
+
+    for algo in ("avril", "valuedice", "dsfn"):
+        assert same_data(algo, "LunarLander-v3", "published", "full") and same_data(algo, "CartPole-v1", "full", "published")
+        assert not same_data(algo, "CartPole-v1", "published_next", "full")
+    for algo in ("bc", "mbil", "iq_learn"):
+        assert not same_data(algo, "Acrobot-v1", "published", "full") and same_data(algo, "Acrobot-v1", "published", "published")
+    with pytest.raises(ValueError, match="protocol"):
+        same_data("bc", "Acrobot-v1", "full", "subsampled")
+
+
 @pytest.mark.parametrize("algo", ["valuedice", "avril"])
 def test_one_step_pieces_train_like_whole_trajectories(algo):
     """ValueDICE's and AVRIL's published rows before the rate-1 shortcut trained on one-step pieces

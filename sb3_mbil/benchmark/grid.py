@@ -19,6 +19,9 @@ RESULT_COLUMNS = [
     "target_mean", "p_heldout_ll", "transition_heldout_ll", "next_action_noise",
     # the data protocol (sb3_mbil.benchmark.protocol); files written before it have full-trajectory rows only
     "protocol",
+    # a row copied from another grid's file, whose run trained on the same data with the same settings
+    # (sb3_mbil.benchmark.runner.reuse_rows): that file's name; empty for a row run here
+    "reused_from",
 ]
 KEY_COLUMNS = ("algo", "env", "n_trajectories", "seed")
 

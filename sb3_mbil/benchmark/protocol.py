@@ -55,6 +55,19 @@ def published_start(algo: str) -> int | str:
     return PUBLISHED_START.get(algo, DEFAULT_START)
 
 
+def same_data(algo: str, env_id: str, protocol_a: str, protocol_b: str) -> bool:
+    """Whether ``algo`` trains on the same data on ``env_id`` under two protocols (for a seed and pool): the same
+    protocol, or whole trajectories under both (``full``, and ``published`` at a rate of 1: AVRIL, ValueDICE, DSFN).
+    Such runs are the same run: the grid can reuse one protocol's row for the other (:func:`sb3_mbil.benchmark.runner.reuse_rows`)."""
+    for p in (protocol_a, protocol_b):
+        check_choice("protocol", p, PROTOCOLS)
+
+    def whole(protocol: str) -> bool:
+        return protocol == "full" or (protocol == "published" and published_every(algo, env_id) == 1)
+
+    return protocol_a == protocol_b or (whole(protocol_a) and whole(protocol_b))
+
+
 def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, protocol: str = "full",
                        pool: str | None = None) -> Demonstrations:
     """The data one benchmark run trains on: N trajectories drawn with ``seed`` from the pool (the env's shipped

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import fcntl
 import io
 import logging
 import os
+from collections.abc import Iterator
 from pathlib import Path
+from typing import IO
 
 logger = logging.getLogger("sb3_mbil.results")
 
@@ -33,6 +36,29 @@ def read_result_rows(path: str | os.PathLike) -> list[dict]:
     return rows
 
 
+@contextlib.contextmanager
+def locked(path: str | os.PathLike, mode: str) -> Iterator[IO[str]]:
+    """The file opened in ``mode`` under an exclusive lock. A file replaced while this waited for the lock (by
+    :func:`add_columns`) is opened again, so nothing is written to the replaced copy."""
+    while True:
+        f = open(path, mode, newline="")
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                same = os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                try:
+                    yield f
+                finally:
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                return
+            fcntl.flock(f, fcntl.LOCK_UN)
+        finally:
+            f.close()
+
+
 def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
     """Cut an interrupted last line (no newline, or fewer or more fields than the header) off the file, and say so.
 
@@ -42,25 +68,21 @@ def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
     path = Path(path)
     if not path.is_file():
         return None
-    with open(path, "r+", newline="") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        try:
-            text = f.read()
-            complete = text.endswith("\n")
-            lines = text.split("\n")[:-1] if complete else text.split("\n")
-            if len(lines) <= 1:
-                return None  # empty, or a header only: nothing to drop
-            header, last = next(csv.reader([lines[0]])), lines[-1]
-            if complete and len(next(csv.reader([last]), [])) == len(header):
-                return None
-            keep = "\n".join(lines[:-1]) + "\n"
-            f.seek(0)
-            f.truncate()
-            f.write(keep)
-            f.flush()
-            os.fsync(f.fileno())
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+    with locked(path, "r+") as f:
+        text = f.read()
+        complete = text.endswith("\n")
+        lines = text.split("\n")[:-1] if complete else text.split("\n")
+        if len(lines) <= 1:
+            return None  # empty, or a header only: nothing to drop
+        header, last = next(csv.reader([lines[0]])), lines[-1]
+        if complete and len(next(csv.reader([last]), [])) == len(header):
+            return None
+        keep = "\n".join(lines[:-1]) + "\n"
+        f.seek(0)
+        f.truncate()
+        f.write(keep)
+        f.flush()
+        os.fsync(f.fileno())
     logger.warning("%s: dropped an incomplete last line (an interrupted write), its run is redone: %r", path, last[:80])
     return last
 
@@ -100,24 +122,43 @@ def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     drop_incomplete_last_line(path)
-    with open(path, "a+", newline="") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        try:
+    with locked(path, "a+") as f:
+        buf = io.StringIO()
+        f.seek(0, os.SEEK_END)
+        if f.tell() == 0:
+            csv.writer(buf).writerow(columns)
+        else:
+            f.seek(0)
+            columns = next(csv.reader(f))
+            f.seek(0, os.SEEK_END)
+        writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
+        for row in rows:
+            writer.writerow({c: row.get(c, "") for c in columns})
+        f.write(buf.getvalue())
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def add_columns(path: str | os.PathLike, columns: list[str]) -> list[str]:
+    """Give an existing results CSV the ``columns`` its header lacks (empty in its rows, appended at the end), the
+    file rewritten whole or not at all, under the appenders' lock; returns the columns added. :func:`append_rows`
+    keeps a file's own header and leaves out what it lacks, so a new column must be added before rows that use it."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    drop_incomplete_last_line(path)
+    with locked(path, "r") as f:
+        text = f.read()
+        header = next(csv.reader(io.StringIO(text)), None)
+        missing = [c for c in columns if header is not None and c not in header]
+        if missing:
+            rows = read_result_rows(path)
             buf = io.StringIO()
-            if f.tell() == 0:
-                csv.writer(buf).writerow(columns)
-            else:
-                f.seek(0)
-                columns = next(csv.reader(f))
-                f.seek(0, os.SEEK_END)
-            writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
-            for row in rows:
-                writer.writerow({c: row.get(c, "") for c in columns})
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+            writer = csv.DictWriter(buf, fieldnames=[*header, *missing])
+            writer.writeheader()
+            writer.writerows(rows)
+            write_text(path, buf.getvalue())
+    return missing
 
 
 def write_text(path: str | os.PathLike, text: str) -> None:

@@ -8,10 +8,19 @@ from __future__ import annotations
 
 import logging
 import os
+from pathlib import Path
 from typing import Any
 
-from sb3_mbil.benchmark.grid import KEY_COLUMNS, RESULT_COLUMNS, Run, check_grid_settings, git_commit, run_one
-from sb3_mbil.benchmark.results import append_row, finished_keys
+from sb3_mbil.benchmark.grid import (
+    KEY_COLUMNS,
+    RESULT_COLUMNS,
+    Run,
+    check_grid_settings,
+    git_commit,
+    run_one,
+    settings_column,
+)
+from sb3_mbil.benchmark.results import add_columns, append_row, append_rows, finished_keys, read_result_rows
 
 logger = logging.getLogger("sb3_mbil.benchmark")
 
@@ -24,6 +33,37 @@ def pending(runs: list[Run], csv_path: str) -> list[Run]:
 def _pool(pool: str | dict[str, str] | None, run: Run) -> str | None:
     """One pool for every run, or one per env (``{env: pool}``, e.g. each env's second expert)."""
     return pool.get(run.env) if isinstance(pool, dict) else pool
+
+
+def reuse_rows(runs: list[Run], csv_path: str, source: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
+               pool: str | dict[str, str] | None = None, protocol: str = "full") -> int:
+    """Copy into ``csv_path`` the rows of ``source`` (another grid's file) for the pending runs that would repeat
+    them: the same key and number of evaluation episodes, the same data (:func:`sb3_mbil.benchmark.protocol.same_data`: AVRIL, ValueDICE and DSFN see
+    whole trajectories under ``full`` and ``published``) and the settings the source row records are the ones the
+    run would have under the source's protocol now. A copied row keeps its result and its commit; its ``protocol``
+    and ``settings`` are this grid's, and ``reused_from`` names the source file. Returns the number of rows copied."""
+    from sb3_mbil.benchmark.protocol import same_data
+
+    todo = pending(runs, csv_path)
+    by_key = {tuple(r[c] for c in KEY_COLUMNS): r for r in read_result_rows(source)}
+    copied = []
+    for run in todo:
+        row = by_key.get(run.key())
+        if row is None or row.get("reused_from") or int(row["n_episodes"]) != n_episodes:
+            continue
+        run_pool = _pool(pool, run)
+        source_protocol = row.get("protocol") or "full"
+        if not same_data(run.algo, run.env, source_protocol, protocol):
+            continue
+        if row["settings"] != settings_column(run.algo, run.env, overrides, run_pool, source_protocol):
+            continue
+        copied.append({**row, "protocol": protocol, "settings": settings_column(run.algo, run.env, overrides, run_pool,
+                                                                                protocol), "reused_from": Path(source).name})
+    if copied:
+        add_columns(csv_path, RESULT_COLUMNS)
+        append_rows(csv_path, copied, RESULT_COLUMNS)
+        logger.info("%d rows reused from %s", len(copied), source)
+    return len(copied)
 
 
 def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
