@@ -56,8 +56,8 @@ class DSFN(OfflineAlgorithm):
     copied every 500 steps would cap psi's horizon at one step per copy: 10 copies in a 5 000-step phase give
     about 1 - 0.99^10 = 10% of the scale of mu_E, which swamps the distances that pick the policy. The reference's
     successor-feature head is linear in its input (its output layer reads [s, a], skipping its two hidden layers) and
-    samples a Gaussian of standard deviation 1 around that output when estimating; ours is the 2x64 ELU network of
-    ``sf_arch``, read deterministically. Deviations: Abbeel and Ng's projection formula (the
+    samples a Gaussian around that output (a trained log-std that starts at 0) in training and estimation; ours is
+    the 2x64 ELU network of ``sf_arch``, read deterministically. Deviations: Abbeel and Ng's projection formula (the
     reference code's parenthesisation of it differs), no early stop on held-out action matching, and the
     time-limit normalisation of mu_E above. Two data bugs of the reference code are not copied: its warm start
     reads the N trajectories through a ``flatten`` that returns inside its loop, so only the first trajectory is
