@@ -61,11 +61,13 @@ def same_data(algo: str, env_id: str, protocol_a: str, protocol_b: str) -> bool:
     Such runs are the same run: the grid can reuse one protocol's row for the other (:func:`sb3_mbil.benchmark.runner.reuse_rows`)."""
     for p in (protocol_a, protocol_b):
         check_choice("protocol", p, PROTOCOLS)
+    return protocol_a == protocol_b or (keeps_whole(algo, env_id, protocol_a) and keeps_whole(algo, env_id, protocol_b))
 
-    def whole(protocol: str) -> bool:
-        return protocol == "full" or (protocol == "published" and published_every(algo, env_id) == 1)
 
-    return protocol_a == protocol_b or (whole(protocol_a) and whole(protocol_b))
+def keeps_whole(algo: str, env_id: str, protocol: str) -> bool:
+    """Whether ``algo`` trains on whole trajectories on ``env_id`` under ``protocol`` (``full``, or ``published`` at a
+    rate of 1)."""
+    return protocol == "full" or (protocol == "published" and published_every(algo, env_id) == 1)
 
 
 def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, protocol: str = "full",
@@ -74,7 +76,7 @@ def demonstrations_for(algo: str, env_id: str, n_trajectories: int, seed: int, p
     pool by default), whole (``full``) or subsampled at the algorithm's published rate (``published``)."""
     protocol = check_choice("protocol", protocol, PROTOCOLS)
     demos = load_demonstrations(pool or env_id).sample(n_trajectories, seed=seed)
-    if protocol == "full" or (protocol == "published" and published_every(algo, env_id) == 1):
+    if keeps_whole(algo, env_id, protocol):
         # whole trajectories, not one-step pieces: DSFN's feature expectations run over each trajectory's steps
         return demos
     return demos.subsample(published_every(algo, env_id), published_start(algo), with_next=protocol == "published_next",
