@@ -50,9 +50,7 @@ def main(argv=None):
         return obs[:keep], act[:keep]
 
     class ReferenceWarmStartDSFN(DSFN):
-        """DSFN whose warm start (its only reader of expert_pairs) trains on the reference's rows."""
-
-        reference_obs = reference_act = None
+        """DSFN whose warm start (its only reader of expert_pairs) trains on the reference's rows (set before learn)."""
 
         def expert_pairs(self):
             return PairSamples(self._to_tensor(self.reference_obs, "obs"), self._to_tensor(self.reference_act, "act"))
@@ -64,13 +62,14 @@ def main(argv=None):
             steps = int(float(settings.pop("n_timesteps")))
             for n in a.n_trajectories:
                 demos = demonstrations_for("dsfn", env, n, s, "published")
-                ReferenceWarmStartDSFN.reference_obs, ReferenceWarmStartDSFN.reference_act = reference_rows(demos)
-                model = ReferenceWarmStartDSFN("MlpPolicy", env, expert_data=demos, seed=s, **settings).learn(steps)
+                model = ReferenceWarmStartDSFN("MlpPolicy", env, expert_data=demos, seed=s, **settings)
+                model.reference_obs, model.reference_act = reference_rows(demos)
+                model.learn(steps)
                 dsfn_return = evaluate(model, env, a.episodes, seed=1_000_000 + s).mean()
                 model.policy.load_state_dict(model.feature_net.state_dict())  # pi_0, the warm-start classifier
                 warm_return = evaluate(model, env, a.episodes, seed=1_000_000 + s).mean()
-                row = {"env": env, "n_trajectories": n, "seed": s, "warm_start_rows": len(ReferenceWarmStartDSFN.reference_act),
-                       "zero_rows": int((ReferenceWarmStartDSFN.reference_obs == 0).all(1).sum()),
+                row = {"env": env, "n_trajectories": n, "seed": s, "warm_start_rows": len(model.reference_act),
+                       "zero_rows": int((model.reference_obs == 0).all(1).sum()),
                        "dsfn_return": float(dsfn_return), "warm_start_return": float(warm_return),
                        "iterations": len(model.margins), "n_episodes": a.episodes, "commit": commit}
                 append_row(a.csv, row, list(row))
