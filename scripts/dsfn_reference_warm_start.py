@@ -1,6 +1,6 @@
 """Issue 17: does the reference code's warm-start data explain the published DSFN curve?
 
-The published DSFN (CKIL's figure, BASELINES.md section 11) is far below ours on the same draws. DSFN's warm start in
+The published DSFN (CKIL's figure; the values are in docs/benchmarks_notes.md) is far below ours on the same draws. DSFN's warm start in
 dtak/batch-apprenticeship-learning (`src/core/data_util.py::GymDataset`, read by `src/model/bc.py::train_bc`) passes
 the N trajectories through a `flatten` whose `return` sits inside its loop: only the first trajectory is copied, the
 other N - 1 trajectories' rows stay zeros (observation 0, action 0), and BC trains on the first 70% of those rows.
