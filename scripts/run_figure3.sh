@@ -11,8 +11,9 @@ cd "$(dirname "$0")/.."
 RUNNER=${CURVE_RUNNER:-}
 ENVS="CartPole-v1 Acrobot-v1 LunarLander-v3"
 # The grid is seed-major (every algorithm at a seed before the next seed), so DSFN runs in a pass of its own: its
-# classic-control entries (the reference warm start, ten times shorter iterations: 135 000 steps; scripts/tune_dsfn.sh)
-# take about 2.5 min a run here, its reference schedule 15-17 min, against 0.5-3 min for the others. ValueDICE runs
+# CartPole-v1 and Acrobot-v1 entries (the reference warm start, ten times shorter iterations: 135 000 steps;
+# scripts/tune_dsfn.sh) take about 2.5 min a run here, its reference schedule (LunarLander-v3) 15-20 min, against
+# 0.5-3 min for the others. ValueDICE runs
 # with the others since its classic-control entries moved to the published comparison's 1e4 updates (about 75 s).
 #   bash scripts/run_figure3.sh published dsfn   # DSFN alone (likewise valuedice)
 ALGOS=${FIGURE3_ALGOS:-"bc mbil mbil_c edm rcal avril iq_learn valuedice"}

@@ -292,6 +292,12 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
                      "ValueDICE's earlier rows, on BC's every-20th rate; the published comparison ran the "
                      "google-research value_dice code (CKIL's appendix C.1), which keeps every step, so its "
                      "published-protocol rows above are on whole trajectories.", anchors=False, plots=plots),
+        grid_section("Figure 3: the published protocol, DSFN's shorter schedule on LunarLander-v3 (superseded)",
+                     "results/classic_control_published_dsfn_warm.csv", reps,
+                     "DSFN's earlier LunarLander-v3 rows, with the reference warm start and ten times shorter "
+                     "iterations (135 000 steps). That schedule did not return the reference schedule's policy on a "
+                     "tuning draw with seven trajectories, so LunarLander-v3 is back on the reference schedule "
+                     "(900 000 steps) and its rows above are rerun.", anchors=False, plots=plots),
         grid_section("Figure 3: the published protocol from each trajectory's first step (superseded)",
                      "results/classic_control_published_start0.csv", reps,
                      "The rerun's first rows, every trajectory subsampled from step 0 (IQ-Learn's code) instead of from "
