@@ -111,7 +111,6 @@ def test_every_sampler_gives_constructor_arguments(algo):
         ALGORITHMS[algo]("MlpPolicy", gym.make(native_env(ALGORITHMS[algo])), **params)
 
 
-
 def test_dsfn_entries_train_their_whole_schedule():
     """A DSFN entry's n_timesteps is its schedule's length (shorter stops it mid-iteration; the zoo and the
     benchmark rows report it as the run's length)."""
@@ -125,6 +124,7 @@ def test_dsfn_entries_train_their_whole_schedule():
         names = ("warm_start_steps", "sf_steps", "dqn_steps", "max_iterations")
         schedule = SimpleNamespace(**{k: entry.get(k, defaults[k]) for k in names})
         assert float(entry["n_timesteps"]) == DSFN.schedule_steps.fget(schedule), env
+
 
 def test_number_of_trajectories_is_a_hyperparameter(tmp_path):
     train = run(["-m", "rl_zoo3.train", "--algo", "bc", "--env", "Acrobot-v1", "-n", "5", "--eval-freq", "-1",
