@@ -117,6 +117,18 @@ def test_dsfn_margin_shrinks_across_iterations(sharp):
     assert model.num_timesteps == n
 
 
+def test_dsfn_returns_the_policy_closest_to_the_expert_and_says_which(sharp, tmp_path):
+    model = trained("dsfn", sharp)
+    d, i = model.distances, model.returned_iteration
+    assert len(d) == len(model.margins) == 3 and d[i] == min(d) == pytest.approx(float(model.state.best_distance))
+    model.save(tmp_path / "dsfn.zip")
+    loaded = DSFN.load(tmp_path / "dsfn.zip")
+    assert loaded.distances == d and loaded.returned_iteration == i
+    # a file saved before the distances were kept still loads (strictly, as SB3 loads), the iteration unknown
+    loaded.state.load_state_dict({k: v for k, v in model.state.state_dict().items() if k != "distances"})
+    assert loaded.returned_iteration is None and loaded.training_complete()
+
+
 def test_dsfn_successor_features_reach_the_expert_scale(sharp):
     """With gamma 0.99, mu_0 (the warm-start policy, which matches the expert here) comes out near mu_E after one
     successor-feature phase. A target network copied every 500 steps would leave psi at one step of horizon per copy

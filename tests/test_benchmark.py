@@ -57,6 +57,23 @@ def test_published_protocol_and_second_expert_are_named_in_the_rows(tmp_path):
             assert "('expert_pool', 'CartPole-v1-ppo')" in row["settings"]
 
 
+def test_dsfn_rows_name_the_policy_it_returned_and_old_files_gain_the_column(tmp_path):
+    """A file written before the returned_iteration column gains it (its rows kept, empty there); a DSFN row fills it
+    with the index of the pi_i it returned, other algorithms' rows leave it empty."""
+    from sb3_mbil.benchmark.results import append_rows
+
+    out = tmp_path / "r.csv"
+    before = RESULT_COLUMNS[:RESULT_COLUMNS.index("returned_iteration")]
+    append_rows(out, [{**dict.fromkeys(before, "x"), "algo": "bc", "seed": "7"}], before)
+    tiny = {**TINY, "dsfn": {"warm_start_steps": 20, "dqn_steps": 10, "sf_steps": 10, "max_iterations": 2,
+                             "n_timesteps": 70}}
+    assert run_local(make_grid(["dsfn", "bc"], ["CartPole-v1"], [1], [0]), str(out), n_episodes=2, overrides=tiny) == 2
+    rows = rows_of(out)
+    assert list(rows[0]) == RESULT_COLUMNS and rows[0]["seed"] == "7" and rows[0]["returned_iteration"] == ""
+    dsfn, bc = (next(r for r in rows[1:] if r["algo"] == a) for a in ("dsfn", "bc"))
+    assert dsfn["returned_iteration"] in {"0", "1", "2"} and bc["returned_iteration"] == ""
+
+
 def test_rows_of_runs_on_the_same_data_are_reused_not_rerun(tmp_path):
     """AVRIL sees whole trajectories under both protocols: its published row is the full grid's row (the same
     result when run again), copied with the full grid's settings and its source named; BC's every-20th row is not."""
@@ -69,8 +86,9 @@ def test_rows_of_runs_on_the_same_data_are_reused_not_rerun(tmp_path):
     grid = make_grid(["avril", "bc"], ["CartPole-v1"], [1], [0])
     assert run_local(grid, str(source), n_episodes=2, overrides=tiny, protocol="published") == 2
     # a file written before the reused_from column: the column is added, its rows kept
-    old = {c: "x" for c in RESULT_COLUMNS[:-1]}
-    append_rows(out, [{**old, "algo": "bc", "seed": "7"}], RESULT_COLUMNS[:-1])
+    before = RESULT_COLUMNS[:RESULT_COLUMNS.index("reused_from")]
+    old = dict.fromkeys(before, "x")
+    append_rows(out, [{**old, "algo": "bc", "seed": "7"}], before)
     # other settings, or another number of evaluation episodes, is another run
     assert reuse_rows(grid, str(out), str(source), 2, {**tiny, "avril": {"n_timesteps": 30}}) == 0
     assert reuse_rows(grid, str(out), str(source), 3, tiny) == 0

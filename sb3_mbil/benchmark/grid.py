@@ -22,6 +22,8 @@ RESULT_COLUMNS = [
     # a row copied from another grid's file, whose run trained on the same data with the same settings
     # (sb3_mbil.benchmark.runner.reuse_rows): that file's name; empty for a row run here
     "reused_from",
+    # DSFN: i of the returned pi_i (0: its warm-start classifier; sb3_mbil.DSFN.returned_iteration)
+    "returned_iteration",
 ]
 KEY_COLUMNS = ("algo", "env", "n_trajectories", "seed")
 
@@ -166,6 +168,8 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
             "transition_heldout_ll": round(report["transition_heldout_ll"], 4),
             "next_action_noise": report["next_action"]["noise"],
         }
+    if getattr(model, "returned_iteration", None) is not None:
+        diagnostics["returned_iteration"] = model.returned_iteration
     return {
         **asdict(run),
         "mean_return": float(np.mean(returns)),

@@ -71,6 +71,7 @@ def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: 
     """Without Ray, one run after the other (for debugging)."""
     todo, commit = pending(runs, csv_path), git_commit()
     check_grid_settings(todo, csv_path, overrides, pool, protocol)
+    add_columns(csv_path, RESULT_COLUMNS)  # a file from before a column keeps its rows and gains the column
     for run in todo:
         row = run_one(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol)
         append_row(csv_path, row, RESULT_COLUMNS)
@@ -88,6 +89,7 @@ def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: di
     if not todo:
         return 0
     check_grid_settings(todo, csv_path, overrides, pool, protocol)
+    add_columns(csv_path, RESULT_COLUMNS)
     env_vars = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore"}
     if address:
         ray.init(address=address, runtime_env={"env_vars": env_vars})

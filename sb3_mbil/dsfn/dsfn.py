@@ -42,7 +42,8 @@ class DSFN(OfflineAlgorithm):
        - **batch DQN** on the reward r = w . phi(s, a) (``dqn_steps``, a fresh Q each iteration, Huber
          loss, target copy): pi_{i+1} = greedy Q.
 
-    The returned policy is the pi_i (pi_0 included) whose mu_i was closest to mu_E; the reference returns
+    The returned policy is the pi_i (pi_0 included) whose mu_i was closest to mu_E (:attr:`returned_iteration`,
+    with every ||mu_E - mu_i|| in :attr:`distances`); the reference returns
     the mixture of the pi_i whose mixed mu is closest (a mixture is not one network). ``learn`` stops when
     the schedule is complete; :attr:`schedule_steps` is its length at most. The policy network is the
     classifier during the warm start and Q after it.
@@ -188,6 +189,21 @@ class DSFN(OfflineAlgorithm):
         """t_i = ||mu_E - mu_bar_i|| of the iterations so far."""
         m = self.state.margins
         return [float(v) for v in m[~th.isnan(m)]]
+
+    @property
+    def distances(self) -> list[float]:
+        """||mu_E - mu_i|| of the policies pi_i evaluated so far (pi_0, the warm-start classifier, first)."""
+        d = self.state.distances
+        return [float(v) for v in d[~th.isnan(d)]]
+
+    @property
+    def returned_iteration(self) -> int | None:
+        """i of the returned pi_i, the first one closest to mu_E (0: the warm-start classifier); None before the
+        schedule is complete, or for a model saved before the distances were kept."""
+        d = self.distances
+        if not self.training_complete() or len(d) != len(self.margins):
+            return None
+        return min(range(len(d)), key=d.__getitem__)
 
     # ------------------------------------------------------------------ features
     def phi(self, obs: th.Tensor, actions: th.Tensor) -> th.Tensor:
@@ -336,6 +352,7 @@ class DSFN(OfflineAlgorithm):
             if denom > 0:
                 st.mu_bar.add_(float(d @ (st.mu_expert - st.mu_bar)) / denom * d)
         distance = float((st.mu_expert - mu).norm())
+        st.distances[i] = distance
         if distance < float(st.best_distance):
             st.best_distance.fill_(distance)
             self.best_policy.load_state_dict(self.policy.state_dict())

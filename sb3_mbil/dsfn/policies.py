@@ -31,6 +31,12 @@ class DSFNState(nn.Module):
         self.register_buffer("w", th.zeros(n_features))
         self.register_buffer("margins", th.full((max_iterations + 1,), float("nan")))
         self.register_buffer("best_distance", th.tensor(float("inf")))
+        self.register_buffer("distances", th.full((max_iterations + 1,), float("nan")))  # ||mu_E - mu_i||
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        # files saved before ``distances`` existed load with it unknown (NaN), not with a missing-key error
+        state_dict.setdefault(prefix + "distances", th.full_like(self.distances, float("nan")))
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     @property
     def phase_name(self) -> str:
