@@ -502,6 +502,16 @@ def test_benchmarks_page_is_generated_from_the_result_files(tmp_path, monkeypatc
     assert "| bc | CartPole-v1 | 1 | 171.5 (4) | 170 |" in text and "Within 0.15 of the published value: 1 of 1" in text
 
 
+def test_benchmarks_page_counts_the_iteration_dsfn_returned():
+    """DSFN's rows say which pi_i it returned; the page counts them per cell, rows before the column apart."""
+    from sb3_mbil.benchmark.page import returned_iterations
+
+    rows = [{"algo": "dsfn", "env": "CartPole-v1", "n_trajectories": 1, "seed": s, "returned_iteration": it}
+            for s, it in enumerate(["0", "2", "0", ""])]
+    assert "| CartPole-v1 | 1 | i = 0: 2, i = 2: 1 | 1 |" in returned_iterations(rows)
+    assert returned_iterations([{**r, "algo": "bc"} for r in rows]) == ""
+
+
 def test_rows_name_a_dirty_commit_only_when_code_differs_not_the_results(tmp_path):
     """A running grid changes its own tracked CSV; that must not mark its rows' commit '-dirty', a code change must."""
     from sb3_mbil.benchmark.grid import git_commit

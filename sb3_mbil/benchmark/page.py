@@ -77,6 +77,26 @@ def paired_ci_table(rows, reference: str = "bc") -> str:
     return "\n".join(lines)
 
 
+def returned_iterations(rows) -> str:
+    """DSFN's returned policy per (env, N): how many seeds returned each pi_i (``returned_iteration``; 0 is its
+    warm-start classifier, a BC policy), and how many rows predate the column. Empty without DSFN rows."""
+    counts = defaultdict(lambda: defaultdict(int))
+    for r in rows:
+        if r["algo"] == "dsfn":
+            value = str(r.get("returned_iteration", "") or "").strip()
+            counts[(r["env"], r["n_trajectories"])][int(float(value)) if value else None] += 1
+    if not counts:
+        return ""
+    lines = ["### DSFN: the iteration it returned", "",
+             "DSFN returns the pi_i (i = 0: its warm-start classifier) whose feature expectations were closest to "
+             "the expert's; seeds per returned i, and the rows that predate the `returned_iteration` column.", "",
+             "| env | N | seeds per returned i | not recorded |", "|---|---|---|---|"]
+    for (env, n), c in sorted(counts.items()):
+        returned = ", ".join(f"i = {i}: {k}" for i, k in sorted((i, k) for i, k in c.items() if i is not None))
+        lines.append(f"| {env} | {n} | {returned or '-'} | {c.get(None, 0)} |")
+    return "\n".join(lines)
+
+
 def aggregates(rows, reps: int) -> str:
     lines = ["Normalised score (0 = random, 1 = the pool's expert) over the (env, N) cells every algorithm ran; 95% "
              "stratified bootstrap intervals (rliable):", ""]
@@ -209,6 +229,8 @@ def grid_section(title: str, path: str, reps: int, intro: str = "", published: b
              "the mean return of its evaluation episodes.", table(rows, anchors=anchors and not published), "",
              "### Every algorithm against BC, paired (the same draws and seeds)", "", paired_ci_table(rows), "",
              aggregates(rows, reps)]
+    if returned_iterations(rows):
+        parts += ["", returned_iterations(rows)]
     if published:
         parts += ["", "### Against the published values (CKIL's figure, the MBIL paper's protocol and baseline codes)", "",
                   "\"beyond BC\" is the algorithm's gap minus BC's in the same cell (our BC on the same seeds, in "
