@@ -229,8 +229,9 @@ def grid_section(title: str, path: str, reps: int, intro: str = "", published: b
              "the mean return of its evaluation episodes.", table(rows, anchors=anchors and not published), "",
              "### Every algorithm against BC, paired (the same draws and seeds)", "", paired_ci_table(rows), "",
              aggregates(rows, reps)]
-    if returned_iterations(rows):
-        parts += ["", returned_iterations(rows)]
+    returned = returned_iterations(rows)
+    if returned:
+        parts += ["", returned]
     if published:
         parts += ["", "### Against the published values (CKIL's figure, the MBIL paper's protocol and baseline codes)", "",
                   "\"beyond BC\" is the algorithm's gap minus BC's in the same cell (our BC on the same seeds, in "
