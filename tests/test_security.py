@@ -1,0 +1,73 @@
+"""What the package reads or writes must not run code or write outside its target."""
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+from sb3_mbil import BC, Demonstrations, Trajectory, load_demonstrations
+from sb3_mbil.common.files import atomic_write
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return load_demonstrations("CartPole-v1").sample(1, seed=0)
+
+
+def _plant_links(folder, name, victim):
+    """Symlinks to ``victim`` at every temporary name the old scheme (``.NAME.PID.tmp``) could use, and one at the
+    target itself."""
+    links = [folder / f".{name}.{os.getpid()}.tmp", folder / f".{name}.{os.getpid() + 1}.tmp"]
+    for link in links:
+        link.symlink_to(victim)
+    return links
+
+
+@pytest.mark.parametrize("what", ["demonstrations", "model"])
+def test_a_planted_symlink_is_never_written_through(demo, tmp_path, what):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    folder = tmp_path / "out"
+    folder.mkdir()
+    name = "x.npz" if what == "demonstrations" else "m.zip"
+    _plant_links(folder, name, victim)
+    (folder / name).symlink_to(victim)  # the target itself is a link: it is replaced, not followed
+    if what == "demonstrations":
+        demo.save(folder / name)
+        assert len(Demonstrations.load(folder / name)) == 1
+    else:
+        BC("MlpPolicy", "CartPole-v1", expert_data=demo).save(folder / name)
+        BC.load(folder / name)
+    assert victim.read_text() == "precious"
+    assert not (folder / name).is_symlink() and (folder / name).is_file()
+
+
+def test_an_atomic_write_gets_the_permissions_of_a_new_file(tmp_path):
+    umask = os.umask(0o022)
+    try:
+        with atomic_write(tmp_path / "f.bin") as tmp:
+            assert tmp.is_file() and not tmp.is_symlink()
+            tmp.write_bytes(b"abc")
+    finally:
+        os.umask(umask)
+    assert stat.S_IMODE((tmp_path / "f.bin").stat().st_mode) == 0o644
+    assert os.listdir(tmp_path) == ["f.bin"]
+
+
+def test_an_atomic_write_whose_temporary_was_swapped_for_a_link_refuses(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    with pytest.raises(OSError, match="expected the regular file this write created"):
+        with atomic_write(tmp_path / "f.bin") as tmp:
+            tmp.unlink()
+            tmp.symlink_to(victim)
+    assert victim.read_text() == "precious"
+    assert sorted(os.listdir(tmp_path)) == ["victim.txt"]
+
+
+def test_demonstrations_round_trip_without_pickles(tmp_path):
+    t = Trajectory(np.zeros((3, 4), dtype=np.float32), np.zeros(2, dtype=np.int64))
+    path = Demonstrations([t]).save(tmp_path / "d.npz")
+    with np.load(path, allow_pickle=False) as data:  # every member is a plain array
+        assert all(data[k].dtype != object for k in data.files)
