@@ -249,6 +249,58 @@ def test_sampled_actions_pool(tmp_path):
     assert np.all(sampled[0].actions >= space.low) and np.all(sampled[0].actions <= space.high)
 
 
+@pytest.mark.parametrize("level", [0.0, 0.2, 1.0])
+def test_noisy_actions_follow_their_definition(level):
+    from sb3_mbil.experts.generate import noisy_actions
+
+    rng = np.random.default_rng(0)
+    expert = np.full(20_000, 2, dtype=np.int64)
+    out = noisy_actions(expert, gym.spaces.Discrete(4), level, rng)
+    assert out.dtype == expert.dtype
+    # epsilon-greedy: the expert's action with probability 1 - eps + eps / n, each other one with eps / n
+    assert abs(np.mean(out != 2) - level * 3 / 4) < 0.01
+    box = gym.spaces.Box(np.array([-1.0, 0.0]), np.array([1.0, 4.0]), dtype=np.float32)
+    mean = np.tile(np.array([0.0, 2.0], dtype=np.float32), (20_000, 1))
+    noisy = noisy_actions(mean, box, level, rng)
+    assert noisy.dtype == np.float32 and np.all(noisy >= box.low) and np.all(noisy <= box.high)
+    if 0 < level < 0.3:  # little clipping: the std is level x (high - low) per dimension
+        np.testing.assert_allclose(noisy.std(axis=0), level * (box.high - box.low), rtol=0.05)
+    for bad in (-0.1, 1.5, float("nan"), True, "0.1"):
+        with pytest.raises(ValueError, match="action_noise: expected a number in"):
+            noisy_actions(mean, box, bad, rng)
+
+
+def test_noisy_demonstrator_pool(tmp_path, dqn_zip):
+    """--action-noise executes and records the noisy action, reproducibly for a seed, and says so."""
+    kw = dict(algo="dqn", min_return=-1e9, n_eval_episodes=1, progress=False)
+    det, _ = generate_demonstrations("CartPole-v1", 3, str(dqn_zip), seed=3, **kw)
+    noisy, path = generate_demonstrations("CartPole-v1", 3, str(dqn_zip), seed=3, out=tmp_path / "n.npz",
+                                          action_noise=0.5, **kw)
+    again, _ = generate_demonstrations("CartPole-v1", 3, str(dqn_zip), seed=3, action_noise=0.5, **kw)
+    meta = load_demonstrations(path).metadata
+    assert (meta["expert_actions"], meta["action_noise"]) == ("noisy", 0.5)
+    assert det.metadata["action_noise"] == 0.0
+    np.testing.assert_array_equal(noisy[0].actions, again[0].actions)
+    assert not all(np.array_equal(a.actions, b.actions) for a, b in zip(det, noisy))
+    with pytest.raises(ValueError, match="action_noise: expected 0 with sampled_actions"):
+        generate_demonstrations("CartPole-v1", 1, str(dqn_zip), seed=3, sampled_actions=True, action_noise=0.1, **kw)
+
+
+def test_pools_of_sampled_actions_by_selector():
+    from sb3_mbil.common.demonstrations import pool_name
+
+    for env_id in EXPERTS:
+        if f"{env_id}-sampled" in available_pools():
+            assert pool_name(env_id, actions="sampled") == f"{env_id}-sampled"
+            assert pool_name(env_id, EXPERTS[env_id].algo, actions="sampled") == f"{env_id}-sampled"
+            d = load_demonstrations(env_id, actions="sampled")
+            assert d.metadata["expert_actions"] == "sampled" and d.metadata["pool"] == f"{env_id}-sampled"
+    with pytest.raises(ValueError, match=r"actions: expected one of \['deterministic', 'sampled'\], found 'noisy'"):
+        load_demonstrations("CartPole-v1", actions="noisy")
+    with pytest.raises(ValueError, match="actions: expected a shipped pool 'NoSuchEnv-v0-sampled'"):
+        load_demonstrations("NoSuchEnv-v0", actions="sampled")
+
+
 def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypatch):
     """An interrupted run (checkpoint + replay buffer, no final model) continues with rl_zoo3's -i."""
     import json

@@ -580,34 +580,50 @@ def _import_minari():
     return minari
 
 
-def pool_name(env_id: str, expert: str | None = None) -> str:
-    """The shipped pool of ``env_id`` whose expert is the RL Zoo algorithm ``expert``.
+#: what the actions of a shipped pool are: the expert's deterministic action (each env's first pools) or an action
+#: sampled from its own stochastic policy (pools ``"<pool>-sampled"``: a demonstrator whose log pi_D(a' | s') is finite)
+POOL_ACTIONS = ("deterministic", "sampled")
+
+
+def pool_name(env_id: str, expert: str | None = None, actions: str = "deterministic") -> str:
+    """The shipped pool of ``env_id`` whose expert is the RL Zoo algorithm ``expert`` and whose actions are ``actions``.
 
     Each env's first pool is named after the env (``"LunarLander-v3"``, the paper's expert); a second expert's pool
-    after the env and its algorithm (``"LunarLander-v3-dqn"``). ``expert=None`` is the first pool.
+    after the env and its algorithm (``"LunarLander-v3-dqn"``). ``expert=None`` is the first pool. ``actions="sampled"``
+    picks that expert's pool of sampled actions (``"LunarLander-v3-sampled"``, ``"LunarLander-v3-dqn-sampled"``).
     """
+    if actions not in POOL_ACTIONS:
+        raise ValueError(f"actions: expected one of {list(POOL_ACTIONS)}, found {actions!r}")
+    suffix = "" if actions == "deterministic" else f"-{actions}"
     pools = available_pools()
     if expert is None:
-        return env_id
+        name = env_id + suffix
+        if suffix and name not in pools:
+            raise ValueError(f"actions: expected a shipped pool {name!r} for {env_id} with {actions} actions, found none "
+                             f"(pools of {env_id}: {[p for p in pools if p.startswith(env_id)]})")
+        return name
     expert = str(expert).lower()
-    if f"{env_id}-{expert}" in pools:
-        return f"{env_id}-{expert}"
+    if f"{env_id}-{expert}{suffix}" in pools:
+        return f"{env_id}-{expert}{suffix}"
     from sb3_mbil.experts.generate import EXPERTS  # the first pools' experts
 
     first = EXPERTS.get(env_id)
-    if first is not None and first.algo == expert and env_id in pools:
-        return env_id
-    choices = ([first.algo] if first is not None and env_id in pools else []) + [
-        p[len(env_id) + 1:] for p in pools if p.startswith(f"{env_id}-")]
-    raise ValueError(f"expert: expected one of {choices} for {env_id}, found {expert!r}")
+    if first is not None and first.algo == expert and env_id + suffix in pools:
+        return env_id + suffix
+    choices = ([first.algo] if first is not None and env_id + suffix in pools else []) + [
+        p[len(env_id) + 1:len(p) - len(suffix)] for p in pools
+        if p.startswith(f"{env_id}-") and p.endswith(suffix) and (suffix or not p.endswith("-sampled"))
+        and p[len(env_id) + 1:len(p) - len(suffix)]]
+    raise ValueError(f"expert: expected one of {choices} for {env_id} with {actions} actions, found {expert!r}")
 
 
-def load_demonstrations(path_or_name: str | os.PathLike, expert: str | None = None) -> Demonstrations:
+def load_demonstrations(path_or_name: str | os.PathLike, expert: str | None = None,
+                        actions: str | None = None) -> Demonstrations:
     """Load demonstrations from a ``.npz`` file, a shipped expert pool by env id (``"CartPole-v1"``; ``expert="ppo"``
-    picks the env's pool of another expert, see :func:`pool_name`), or a dataset of the local Minari store
-    (``"minari:<dataset id>"``)."""
-    if expert is not None:
-        path_or_name = pool_name(str(path_or_name), expert)
+    picks the env's pool of another expert and ``actions="sampled"`` its pool of sampled actions, see
+    :func:`pool_name`), or a dataset of the local Minari store (``"minari:<dataset id>"``)."""
+    if expert is not None or actions is not None:
+        path_or_name = pool_name(str(path_or_name), expert, actions or "deterministic")
     if isinstance(path_or_name, str) and path_or_name.startswith(MINARI_PREFIX):
         demos = Demonstrations.from_minari(path_or_name[len(MINARI_PREFIX):])
         demos.metadata["pool"] = path_or_name

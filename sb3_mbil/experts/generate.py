@@ -139,13 +139,44 @@ class Expert:
     #: act with the policy's mode (True) or sample from it (False: a stochastic expert whose
     #: log pi_D(a' | s') is finite, as the Markov balance equation assumes)
     deterministic: bool = True
+    #: noise on the action the expert takes (executed and recorded), see :func:`noisy_actions`; 0 is none
+    action_noise: float = 0.0
+    #: the generator of that noise (seeded by :func:`generate_demonstrations`)
+    noise_rng: np.random.Generator | None = None
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         obs = np.asarray(observations)
         if self.vec_normalize is not None:
             obs = self.vec_normalize.normalize_obs(obs)
         actions, _ = self.model.predict(obs, deterministic=self.deterministic)
+        if self.action_noise:
+            if self.noise_rng is None:
+                self.noise_rng = np.random.default_rng(0)
+            actions = noisy_actions(actions, self.model.action_space, self.action_noise, self.noise_rng)
         return actions
+
+
+def noisy_actions(actions: np.ndarray, action_space: gym.spaces.Space, level: float,
+                  rng: np.random.Generator) -> np.ndarray:
+    """A noisy demonstrator's actions: the expert's ``actions`` (one per row) with noise at ``level``.
+
+    * ``Discrete``: epsilon-greedy with epsilon = ``level``: with probability ``level`` the action is replaced by one
+      drawn uniformly from all actions (the expert's own included), so pi_D(a | s) = (1 - level) [a = a*(s)] + level / n.
+    * ``Box``: Gaussian noise with a standard deviation of ``level`` times the action range (high - low) in each
+      dimension, then clipped to the box: a' = clip(a*(s) + level (high - low) eps, low, high), eps ~ N(0, I).
+    """
+    if not isinstance(level, (int, float)) or isinstance(level, bool) or not np.isfinite(level) or not 0 <= level <= 1:
+        raise ValueError(f"action_noise: expected a number in [0, 1], found {level!r}")
+    actions = np.asarray(actions)
+    if isinstance(action_space, gym.spaces.Discrete):
+        flip = rng.random(actions.shape) < level
+        uniform = action_space.start + rng.integers(0, action_space.n, size=actions.shape)
+        return np.where(flip, uniform, actions).astype(actions.dtype)
+    if isinstance(action_space, gym.spaces.Box):
+        scale = level * (action_space.high - action_space.low)
+        noisy = actions + scale * rng.standard_normal(actions.shape)
+        return np.clip(noisy, action_space.low, action_space.high).astype(actions.dtype)
+    raise ValueError(f"action_noise: expected a Discrete or Box action space, found {action_space}")
 
 
 # ---------------------------------------------------------------------- loading
@@ -711,20 +742,30 @@ def get_expert(env_id: str, source: str = "hub", algo: str | None = None, seed: 
 def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub", seed: int = 0, out: str | os.PathLike | None = None,
                             algo: str | None = None, min_return: float | None = None, n_eval_episodes: int = 100,
                             progress: bool = True, command: str | None = None,
-                            sampled_actions: bool = False) -> tuple[Demonstrations, Path | None]:
+                            sampled_actions: bool = False, action_noise: float = 0.0) -> tuple[Demonstrations, Path | None]:
     """Get an accepted expert, roll it out ``n_trajectories`` times (episode i seeded ``seed + i``), save atomically.
 
     :param sampled_actions: record actions sampled from the expert's policy (torch seeded with
         ``seed``) instead of its deterministic actions; the acceptance test stays deterministic.
+    :param action_noise: a noisy demonstrator: the expert's deterministic action with noise at this level, executed
+        and recorded (:func:`noisy_actions`; epsilon for Discrete actions, a share of the action range for Box);
+        the noise generator is seeded with ``seed``
     """
     if not isinstance(n_trajectories, int) or n_trajectories < 1:
         raise ValueError(f"n_trajectories: expected a positive integer, found {n_trajectories!r}")
+    noisy_actions(np.zeros(1), gym.spaces.Box(-1, 1, (1,)), action_noise, np.random.default_rng(0))  # checks the level
+    if sampled_actions and action_noise:
+        raise ValueError("action_noise: expected 0 with sampled_actions (noise goes on the deterministic action), "
+                         f"found {action_noise!r}")
     expert, record = get_expert(env_id, source, algo, seed, min_return, n_eval_episodes)
     if sampled_actions:
         import torch as th
 
         th.manual_seed(seed)
         expert.deterministic = False
+    if action_noise:
+        expert.action_noise = float(action_noise)
+        expert.noise_rng = np.random.default_rng(seed)
     demos = rollout(expert, n_trajectories, seed, progress=progress)
     returns, lengths = demos.episode_returns, demos.episode_lengths
     import gymnasium
@@ -740,7 +781,8 @@ def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub
         "mean_return": float(returns.mean()),
         "std_return": float(returns.std()),
         "mean_length": float(lengths.mean()),
-        "expert_actions": "sampled" if sampled_actions else "deterministic",
+        "expert_actions": "sampled" if sampled_actions else ("noisy" if action_noise else "deterministic"),
+        "action_noise": float(action_noise),
         "command": command,
         "versions": {"sb3_mbil": __version__, "gymnasium": gymnasium.__version__, "stable_baselines3": stable_baselines3.__version__},
         "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
