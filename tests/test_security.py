@@ -71,3 +71,32 @@ def test_demonstrations_round_trip_without_pickles(tmp_path):
     path = Demonstrations([t]).save(tmp_path / "d.npz")
     with np.load(path, allow_pickle=False) as data:  # every member is a plain array
         assert all(data[k].dtype != object for k in data.files)
+
+
+def test_settings_strings_are_parsed_never_run(tmp_path):
+    import torch as th
+
+    from sb3_mbil.common.settings import parse_policy_kwargs
+
+    assert parse_policy_kwargs("dict(net_arch=[256, 256], activation_fn=nn.ELU, optimizer_class=th.optim.AdamW, "
+                               "optimizer_kwargs=dict(eps=1e-5), log_std_init=-2, bounded_mean=True)") == {
+        "net_arch": [256, 256], "activation_fn": th.nn.ELU, "optimizer_class": th.optim.AdamW,
+        "optimizer_kwargs": {"eps": 1e-5}, "log_std_init": -2, "bounded_mean": True}
+    assert parse_policy_kwargs("{'net_arch': (32,)}") == {"net_arch": (32,)}
+    marker = tmp_path / "ran"
+    for attack in (f"dict(x=open({str(marker)!r}, 'w'))", "__import__('os').system('true')",
+                   "dict(a=nn.Module.__subclasses__())", "dict(**{'a': 1})", "dict(a=th.load)", "os.system",
+                   "dict(a=(lambda: 1)())", "[1, 2]"):
+        with pytest.raises(ValueError, match="policy_kwargs: expected"):
+            parse_policy_kwargs(attack)
+    assert not marker.exists()
+
+
+def test_the_harness_never_runs_a_policy_kwargs_override(tmp_path):
+    from sb3_mbil.benchmark.grid import tuned_settings
+
+    marker = tmp_path / "ran"
+    with pytest.raises(ValueError, match="policy_kwargs: expected"):
+        tuned_settings("bc", "CartPole-v1", {"policy_kwargs": f"dict(a=open({str(marker)!r}, 'w'))"})
+    assert not marker.exists()
+    assert tuned_settings("bc", "Hopper-v4")["policy_kwargs"]["net_arch"] == [256, 256]

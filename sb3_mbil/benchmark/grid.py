@@ -80,10 +80,10 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
     settings = {k: v for k, v in entry.items() if k not in DATA_KEYS and k != "policy"}
     settings.update(overrides or {})
     if isinstance(settings.get("policy_kwargs"), str):
-        # as rl_zoo3 reads it ("dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"), with th and nn in scope
-        import torch
+        # as rl_zoo3 writes it ("dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"), parsed, never run
+        from sb3_mbil.common.settings import parse_policy_kwargs
 
-        settings["policy_kwargs"] = eval(settings["policy_kwargs"], {"dict": dict, "th": torch, "nn": torch.nn})
+        settings["policy_kwargs"] = parse_policy_kwargs(settings["policy_kwargs"])
     if isinstance(settings.get("learning_rate"), str):
         # "lin_1e-3": rl_zoo3's linear schedule (decays to 0 over the run); rl_zoo3 reads any prefix as linear, we
         # accept only "lin_"
