@@ -100,3 +100,39 @@ def test_the_harness_never_runs_a_policy_kwargs_override(tmp_path):
         tuned_settings("bc", "CartPole-v1", {"policy_kwargs": f"dict(a=open({str(marker)!r}, 'w'))"})
     assert not marker.exists()
     assert tuned_settings("bc", "Hopper-v4")["policy_kwargs"]["net_arch"] == [256, 256]
+
+
+@pytest.mark.parametrize("org, trust, expected", [("sb3", None, "True"), ("someone-else", None, None),
+                                                  ("someone-else", True, "True"), ("sb3", False, None)])
+def test_remote_code_is_trusted_for_the_rl_zoo_only_unless_the_caller_says(monkeypatch, org, trust, expected):
+    import huggingface_sb3
+
+    from sb3_mbil.experts.generate import load_hub_expert
+
+    seen = {}
+
+    def fake_load_from_hub(repo_id, filename):
+        seen["trust"] = os.environ.get("TRUST_REMOTE_CODE")
+        raise OSError("offline")
+
+    monkeypatch.delenv("TRUST_REMOTE_CODE", raising=False)
+    monkeypatch.setattr(huggingface_sb3, "load_from_hub", fake_load_from_hub)
+    with pytest.raises(LookupError):
+        load_hub_expert("CartPole-v1", "dqn", org=org, online=True, trust_remote_code=trust)
+    assert seen["trust"] == expected
+    assert "TRUST_REMOTE_CODE" not in os.environ
+    with pytest.raises(ValueError, match="trust_remote_code: expected True, False or None"):
+        load_hub_expert("CartPole-v1", "dqn", trust_remote_code="yes")
+
+
+@pytest.mark.parametrize("dataset_id", ["../../escaped/x-v0", "/abs/x-v0", "ns/../x-v0", ".hidden-v0", "x", "x-v0/..",
+                                        "a b-v0", 5])
+def test_a_minari_id_outside_the_store_is_refused_before_anything_is_written(demo, tmp_path, monkeypatch, dataset_id):
+    from sb3_mbil.common.demonstrations import check_minari_id
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "store" / "a" / "b"))
+    with pytest.raises(ValueError, match="dataset_id: expected"):
+        demo.to_minari(dataset_id)
+    assert os.listdir(tmp_path) == []
+    assert check_minari_id("ns/sub/cartpole-expert-v0") == "ns/sub/cartpole-expert-v0"

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import zipfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -403,6 +404,7 @@ class Demonstrations:
         its last step's reward (the other steps 0), so Minari's returns equal ours. Trajectories without their
         final observation cannot be written (Minari needs ``T + 1`` observations). Needs the ``minari`` extra.
         """
+        check_minari_id(dataset_id)
         minari = _import_minari()
         from minari.data_collector import EpisodeBuffer
 
@@ -570,6 +572,19 @@ def available_pools() -> list[str]:
 
 
 MINARI_PREFIX = "minari:"
+
+
+#: a Minari dataset id: ``(namespace/)*name-vN``, each part letters, digits, ``_``, ``-`` or ``.``, never starting with
+#: a dot (so no ``..`` and no absolute path can reach outside the store)
+_MINARI_ID = re.compile(r"(?:[A-Za-z0-9_][A-Za-z0-9_.-]*/)*[A-Za-z0-9_][A-Za-z0-9_.-]*-v[0-9]+")
+
+
+def check_minari_id(dataset_id: Any) -> str:
+    """A Minari dataset id that names a folder inside the store, or a ``ValueError`` before anything is written."""
+    if not isinstance(dataset_id, str) or not _MINARI_ID.fullmatch(dataset_id):
+        raise ValueError(f"dataset_id: expected '(namespace/)name-v<version>' with parts of letters, digits, '_', '-' "
+                         f"or '.' (not starting with '.'), found {dataset_id!r}")
+    return dataset_id
 
 
 def _import_minari():

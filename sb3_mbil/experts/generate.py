@@ -231,11 +231,25 @@ def hub_reachable(timeout: float = 1.5) -> bool:
         return False
 
 
-def load_hub_expert(env_id: str, algo: str, org: str = "sb3", online: bool | None = None) -> Expert:
+#: the Hugging Face organisation of the RL Zoo's own agents: the one whose models are unpickled without asking
+RL_ZOO_ORG = "sb3"
+
+
+def load_hub_expert(env_id: str, algo: str, org: str = RL_ZOO_ORG, online: bool | None = None,
+                    trust_remote_code: bool | None = None) -> Expert:
     """The RL Zoo agent ``{org}/{algo}-{env_id}`` from the Hugging Face Hub (or its local cache).
+
+    An SB3 model zip can hold cloudpickled objects, and unpickling runs code. ``huggingface_sb3`` refuses to load one
+    unless ``TRUST_REMOTE_CODE`` is set; we set it around the load for the RL Zoo's own organisation
+    (:data:`RL_ZOO_ORG`) only, unless ``trust_remote_code`` says otherwise. Another organisation's agent is loaded
+    only with ``trust_remote_code=True``.
 
     Raises ``LookupError`` when it is neither reachable nor cached.
     """
+    if trust_remote_code is None:
+        trust_remote_code = org == RL_ZOO_ORG
+    if not isinstance(trust_remote_code, bool):
+        raise ValueError(f"trust_remote_code: expected True, False or None, found {trust_remote_code!r}")
     from huggingface_hub import hf_hub_download
     from huggingface_sb3 import ModelName, ModelRepoId, load_from_hub
 
@@ -248,12 +262,15 @@ def load_hub_expert(env_id: str, algo: str, org: str = "sb3", online: bool | Non
             # huggingface_sb3 reads the hub, or with HF_HUB_OFFLINE=1 the local hub cache. It refuses to
             # unpickle a model unless TRUST_REMOTE_CODE is set: these are the RL Zoo's own agents.
             previous = os.environ.get("TRUST_REMOTE_CODE")
-            os.environ["TRUST_REMOTE_CODE"] = "True"
+            if trust_remote_code:
+                os.environ["TRUST_REMOTE_CODE"] = "True"
+            else:
+                os.environ.pop("TRUST_REMOTE_CODE", None)
             try:
                 model_path = load_from_hub(repo_id, model_name.filename)
             finally:
                 if previous is None:
-                    del os.environ["TRUST_REMOTE_CODE"]
+                    os.environ.pop("TRUST_REMOTE_CODE", None)
                 else:
                     os.environ["TRUST_REMOTE_CODE"] = previous
         else:  # unreachable without the flag: read the cache without waiting for the network
