@@ -34,6 +34,8 @@ def main(argv=None):
     parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes of the acceptance test")
     parser.add_argument("--sampled-actions", action="store_true",
                         help="record actions sampled from the expert's policy instead of its deterministic ones")
+    parser.add_argument("--dqn-epsilon", type=finite_float, default=0.05,
+                        help="with --sampled-actions, the epsilon of a DQN expert's epsilon-greedy sampling")
     parser.add_argument("--action-noise", type=finite_float, default=0.0,
                         help="a noisy demonstrator: noise on the deterministic action, executed and recorded (Discrete: "
                              "epsilon; Box: Gaussian sigma as a share of the action range, clipped)")
@@ -55,7 +57,7 @@ def main(argv=None):
         return
     demos, path = generate_demonstrations(
         args.env, args.n_trajectories, args.source, args.seed, args.out, args.algo, args.min_return, args.eval_episodes,
-        sampled_actions=args.sampled_actions, action_noise=args.action_noise, command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),
+        sampled_actions=args.sampled_actions, action_noise=args.action_noise, dqn_epsilon=args.dqn_epsilon, command=shlex.join(["python", "scripts/generate_expert_data.py", *(argv if argv is not None else sys.argv[1:])]),
     )
     r, n = demos.episode_returns, demos.episode_lengths
     print(f"expert {demos.metadata['expert']['source']}: return {r.mean():.1f} +- {r.std():.1f}, "

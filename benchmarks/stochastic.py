@@ -1,0 +1,192 @@
+"""Stochastic demonstrators: BC, BC at its best (BC*), MBIL and MBIL-C on pools of sampled or noisy actions.
+
+Not part of the installed package: a study that imports ``sb3_mbil`` like any user code.
+
+A *variant* is an algorithm with settings on top of its zoo entry (``zoo_hyperparams/<algo>.yml``) and, optionally,
+one of two regularisers that are not constructor settings:
+
+* ``early_stop``: :class:`sb3_mbil.common.heldout.ValidationCallback` holds out 20% of the data in blocks of 50 steps,
+  scores the behaviour-cloning loss (held-out NLL, or MSE for a Box policy trained on MSE) every 500 updates, and
+  the best parameters are put back at the end (the model trains on the other 80%);
+* ``ensemble``: k members trained with seeds ``seed + 10_000 j`` (j = 0..k-1) on the same draw; the ensemble acts
+  with the mean of the members' action probabilities (Discrete, then its argmax) or of their mean actions (Box).
+
+Every variant is tried with the same budget (:data:`TUNING_BUDGET`) on tuning seeds >= 100; the best per
+(algorithm, env, pool, N) by mean return is that algorithm's tuned variant (BC's is called BC*), reported on seeds 0-9.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+
+from sb3_mbil import ALGORITHMS
+from sb3_mbil.benchmark.grid import git_commit, tuned_settings
+from sb3_mbil.benchmark.results import append_rows, finished_keys
+from sb3_mbil.common.demonstrations import load_demonstrations
+from sb3_mbil.common.evaluation import evaluate
+from sb3_mbil.common.heldout import ValidationCallback
+
+COLUMNS = ["variant", "algo", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
+           "train_seconds", "best_step", "settings", "commit"]
+KEY = ("variant", "env", "pool", "n_trajectories", "seed")
+
+
+@dataclass(frozen=True)
+class Variant:
+    """An algorithm, settings over its zoo entry, and the regularisers outside its constructor."""
+
+    algo: str
+    settings: dict[str, Any] = field(default_factory=dict)
+    early_stop: bool = False
+    ensemble: int = 1
+
+    def describe(self) -> str:
+        return json.dumps({**asdict(self)}, sort_keys=True)
+
+
+def _discrete(env_id: str) -> bool:
+    return isinstance(gym.make(env_id).action_space, gym.spaces.Discrete)
+
+
+def variants_for(env_id: str) -> dict[str, Variant]:
+    """The tuning grid of an env's action space: for each algorithm the same number of configurations (the budget).
+
+    Every algorithm: its zoo entry, weight decay at the values of {0, 1e-3, 1e-2} other than the entry's (two for
+    Discrete, the first for Box), early stopping, a 5-member ensemble, and two settings of the algorithm's own (BC:
+    Gaussian input noise 0.1 and 0.3 in units of the states' std; MBIL and MBIL-C: alpha 0.3 and 3). Box: the
+    Gaussian NLL with a state-dependent std (``bc_loss="nll"``) in place of the second weight decay.
+    """
+    discrete = _discrete(env_id)
+    out: dict[str, Variant] = {}
+    for algo in ("bc", "mbil", "mbil_c"):
+        zoo_wd = float(tuned_settings(algo, env_id).get("weight_decay", 0.0))
+        wds = [w for w in (0.0, 1e-3, 1e-2) if w != zoo_wd][: 2 if discrete else 1]
+        own = ({"observation_noise": 0.1}, {"observation_noise": 0.3}) if algo == "bc" else ({"alpha": 0.3}, {"alpha": 3.0})
+        out[algo] = Variant(algo)
+        for w in wds:
+            out[f"{algo}_wd{w:g}"] = Variant(algo, {"weight_decay": w})
+        if not discrete:
+            out[f"{algo}_nll"] = Variant(algo, {"bc_loss": "nll"})
+        out[f"{algo}_es"] = Variant(algo, early_stop=True)
+        out[f"{algo}_ens5"] = Variant(algo, ensemble=5)
+        for o in own:
+            (k, v), = o.items()
+            out[f"{algo}_{'noise' if k == 'observation_noise' else k}{v:g}"] = Variant(algo, o)
+    return out
+
+
+#: configurations per algorithm and tuning seeds: the one tuning budget every algorithm gets
+TUNING_SEEDS = (100, 101, 102)
+TUNING_BUDGET = "7 configurations x 3 tuning seeds (100-102) per algorithm, env, pool and N"
+
+
+class EnsemblePolicy:
+    """Acts with the mean of k trained models: their action probabilities (Discrete) or mean actions (Box)."""
+
+    def __init__(self, models: list):
+        self.models = models
+        self.policy = models[0].policy
+        self.discrete = isinstance(self.policy.action_space, gym.spaces.Discrete)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
+        obs, vectorized = self.policy.obs_to_tensor(observation)
+        with th.no_grad():
+            if self.discrete:
+                probs = th.stack([th.softmax(m.policy.logits(obs), dim=-1) for m in self.models]).mean(0)
+                actions = probs.argmax(dim=1).cpu().numpy()
+            else:
+                actions = th.stack([m.policy.mean_action(obs) for m in self.models]).mean(0).cpu().numpy()
+                actions = np.clip(actions, self.policy.action_space.low, self.policy.action_space.high)
+        return (actions if vectorized else actions[0]), None
+
+
+def draw(env_id: str, pool: str, n_trajectories: int, seed: int):
+    """The N trajectories a run of ``seed`` trains on: drawn from ``pool`` (a shipped pool name or a ``.npz``)."""
+    return load_demonstrations(pool).sample(n_trajectories, seed=seed)
+
+
+def train_variant(variant: Variant, env_id: str, demos, seed: int) -> tuple[Any, int | None]:
+    """Train one variant on ``demos``; returns something with ``predict`` and the best step of early stopping."""
+    settings = tuned_settings(variant.algo, env_id, variant.settings)
+    steps = int(float(settings.pop("n_timesteps")))
+    models, best_step = [], None
+    for j in range(variant.ensemble):
+        model = ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=demos, seed=seed + 10_000 * j, **settings)
+        callback = None
+        if variant.early_stop:
+            callback = ValidationCallback(holdout_fraction=0.2, eval_freq=500, block_length=50, monitor="bc_loss",
+                                          restore_best=True, seed=seed)
+        model.learn(steps, callback=callback)
+        if callback is not None:
+            best_step = callback.best_step
+        models.append(model)
+    return (models[0] if len(models) == 1 else EnsemblePolicy(models)), best_step
+
+
+def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seed: int,
+             n_episodes: int, commit: str) -> dict[str, Any]:
+    th.set_num_threads(1)
+    demos = draw(env_id, pool, n_trajectories, seed)
+    t0 = time.perf_counter()
+    policy, best_step = train_variant(variant, env_id, demos, seed)
+    train_seconds = time.perf_counter() - t0
+    returns = evaluate(policy, env_id, n_episodes, seed=1_000_000 + seed, n_envs=20)
+    return {"variant": name, "algo": variant.algo, "env": env_id, "pool": pool, "n_trajectories": n_trajectories,
+            "seed": seed, "mean_return": float(returns.mean()), "std_return": float(returns.std()),
+            "n_episodes": len(returns), "train_seconds": round(train_seconds, 1),
+            "best_step": "" if best_step is None else best_step, "settings": variant.describe(), "commit": commit}
+
+
+def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
+        n_episodes: int, csv_path: str) -> None:
+    """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run."""
+    table = variants_for(env_id)
+    unknown = [v for v in variants if v not in table]
+    if unknown:
+        raise ValueError(f"variants: expected names from {sorted(table)}, found {unknown}")
+    done = finished_keys(csv_path, KEY)
+    commit = git_commit()
+    for seed in seeds:
+        for pool in pools:
+            for n in n_trajectories:
+                for name in variants:
+                    key = (name, env_id, pool, str(n), str(seed))
+                    if key in done:
+                        continue
+                    row = run_cell(name, table[name], env_id, pool, n, seed, n_episodes, commit)
+                    append_rows(csv_path, [row], COLUMNS)
+                    print(f"{name} {env_id} {pool} N={n} seed={seed}: {row['mean_return']:.1f} "
+                          f"({row['train_seconds']} s)", flush=True)
+
+
+def parse_seeds(text: str) -> list[int]:
+    if "-" in text:
+        lo, hi = text.split("-")
+        return list(range(int(lo), int(hi) + 1))
+    return [int(s) for s in text.split(",")]
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", required=True)
+    parser.add_argument("--pools", nargs="+", required=True, help="shipped pool names or .npz paths")
+    parser.add_argument("--variants", nargs="+", required=True, help="names from variants_for(env), or 'all'")
+    parser.add_argument("--n-trajectories", type=int, nargs="+", default=[1])
+    parser.add_argument("--seeds", type=parse_seeds, default=list(TUNING_SEEDS))
+    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--csv", required=True)
+    args = parser.parse_args(argv)
+    variants = sorted(variants_for(args.env)) if args.variants == ["all"] else args.variants
+    run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv)
+
+
+if __name__ == "__main__":
+    main()
