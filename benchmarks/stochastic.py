@@ -145,19 +145,50 @@ def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories
             "best_step": "" if best_step is None else best_step, "settings": variant.describe(), "commit": commit}
 
 
+def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int) -> dict[str, str]:
+    """Per algorithm, the variant with the highest mean return over the tuning rows of (env, pool, N); only variants
+    with as many seeds as the most-run one compete (a variant still running is not picked on fewer seeds)."""
+    scores: dict[str, list[float]] = {}
+    for r in rows:
+        if (r["env"], r["pool"], int(r["n_trajectories"])) == (env_id, pool, n_trajectories):
+            scores.setdefault(r["variant"], []).append(float(r["mean_return"]))
+    if not scores:
+        return {}
+    most = max(len(v) for v in scores.values())
+    table = variants_for(env_id)
+    best: dict[str, tuple[float, str]] = {}
+    for name, values in scores.items():
+        if len(values) == most and name in table:
+            algo = table[name].algo
+            if algo not in best or np.mean(values) > best[algo][0]:
+                best[algo] = (float(np.mean(values)), name)
+    return {algo: name for algo, (_, name) in best.items()}
+
+
 def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
-        n_episodes: int, csv_path: str) -> None:
-    """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run."""
+        n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None) -> None:
+    """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run.
+
+    ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
+    tuning, or ``tuning_pool``'s when given).
+    """
+    from sb3_mbil.benchmark.results import read_result_rows
+
     table = variants_for(env_id)
     unknown = [v for v in variants if v not in table]
     if unknown:
         raise ValueError(f"variants: expected names from {sorted(table)}, found {unknown}")
+    tuning = read_result_rows(tuned_from) if tuned_from else []
     done = finished_keys(csv_path, KEY)
     commit = git_commit()
     for seed in seeds:
         for pool in pools:
             for n in n_trajectories:
-                for name in variants:
+                best = best_variants(tuning, env_id, tuning_pool or pool, n) if tuned_from else {}
+                if tuned_from and not best:
+                    raise ValueError(f"tuned_from: expected tuning rows of {env_id}, {tuning_pool or pool}, N={n} in "
+                                     f"{tuned_from}, found none")
+                for name in dict.fromkeys([*variants, *best.values()]):
                     key = (name, env_id, pool, str(n), str(seed))
                     if key in done:
                         continue
@@ -183,9 +214,12 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", type=parse_seeds, default=list(TUNING_SEEDS))
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--csv", required=True)
+    parser.add_argument("--tuned-from", default=None, help="tuning CSV: also run each algorithm's best variant")
+    parser.add_argument("--tuning-pool", default=None, help="with --tuned-from: the pool whose tuning picks them")
     args = parser.parse_args(argv)
     variants = sorted(variants_for(args.env)) if args.variants == ["all"] else args.variants
-    run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv)
+    run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
+        args.tuning_pool)
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demons
 from sb3_mbil.common.files import atomic_write
 from sb3_mbil.common.losses import bc_loss
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
+from sb3_mbil.common.threads import torch_threads, training_threads
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
 
@@ -361,7 +362,16 @@ class OfflineAlgorithm(BaseAlgorithm):
         :param tb_log_name: tensorboard run name (default: the algorithm's class name, as SB3's algorithms do)
         :param reset_num_timesteps: reset the step counter (False to continue)
         :param progress_bar: show a progress bar (tqdm and rich)
+
+        Training runs with one torch intra-op thread (``model.torch_threads``, default
+        ``SB3_MBIL_TORCH_THREADS`` or 1; :mod:`sb3_mbil.common.threads`) and restores the caller's setting after.
         """
+        threads = getattr(self, "torch_threads", None)
+        with torch_threads(training_threads() if threads is None else threads):
+            return self._learn(total_timesteps, callback, log_interval, tb_log_name, reset_num_timesteps, progress_bar)
+
+    def _learn(self: SelfOffline, total_timesteps: int, callback: MaybeCallback, log_interval: int,
+               tb_log_name: str | None, reset_num_timesteps: bool, progress_bar: bool) -> SelfOffline:
         if self.env is None:
             raise ValueError("env: expected an env to learn (load the model with env=...), found None")
         if isinstance(total_timesteps, bool) or not (

@@ -1,0 +1,65 @@
+"""Training never thrashes the cores: learn runs with one intra-op thread and restores the caller's setting."""
+
+import pytest
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
+
+from sb3_mbil import BC, MBIL, load_demonstrations
+
+
+class ThreadsSeen(BaseCallback):
+    def __init__(self):
+        super().__init__()
+        self.seen = set()
+
+    def _on_training_start(self):
+        self.seen.add(th.get_num_threads())
+
+    def _on_step(self):
+        self.seen.add(th.get_num_threads())
+        return True
+
+
+@pytest.fixture
+def caller_threads():
+    previous = th.get_num_threads()
+    th.set_num_threads(3)
+    yield 3
+    th.set_num_threads(previous)
+
+
+@pytest.mark.parametrize("cls, kwargs", [(BC, {}), (MBIL, dict(flow_max_steps=20, noise_grid=(0.1,), flow_hidden=(16,)))])
+def test_learn_trains_with_one_thread_and_restores_the_callers(caller_threads, cls, kwargs, monkeypatch):
+    monkeypatch.delenv("SB3_MBIL_TORCH_THREADS", raising=False)
+    demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    model = cls("MlpPolicy", "CartPole-v1", expert_data=demo, seed=0, **kwargs)
+    seen = ThreadsSeen()
+    model.learn(5, callback=seen)
+    assert seen.seen == {1}
+    assert th.get_num_threads() == caller_threads
+
+
+def test_the_thread_count_can_be_set_and_is_restored_after_an_error(caller_threads, monkeypatch):
+    demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=demo, seed=0)
+    monkeypatch.setenv("SB3_MBIL_TORCH_THREADS", "2")
+    seen = ThreadsSeen()
+    model.learn(2, callback=seen)
+    assert seen.seen == {2}
+    model.torch_threads = 0  # torch's own (the caller's) setting
+    seen = ThreadsSeen()
+    model.learn(2, callback=seen)
+    assert seen.seen == {caller_threads}
+    model.torch_threads = None
+    monkeypatch.setenv("SB3_MBIL_TORCH_THREADS", "many")
+    with pytest.raises(ValueError, match="SB3_MBIL_TORCH_THREADS: expected an integer >= 0"):
+        model.learn(2)
+    monkeypatch.setenv("SB3_MBIL_TORCH_THREADS", "1")
+
+    class Boom(BaseCallback):
+        def _on_step(self):
+            raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        model.learn(2, callback=Boom())
+    assert th.get_num_threads() == caller_threads
