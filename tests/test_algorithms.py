@@ -80,8 +80,8 @@ def test_save_load_identical(algo, env_id, data, tmp_path):
     model.save(tmp_path / "model.zip")
     obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(16)])
     before, _ = model.predict(obs, deterministic=True)
-    for env in (None, gym.make(env_id)):
-        loaded = algo.load(tmp_path / "model.zip", env=env)
+    for env, safe in ((None, False), (gym.make(env_id), False), (gym.make(env_id), True)):
+        loaded = algo.load(tmp_path / "model.zip", env=env, safe=safe)  # safe: every zip we write, nothing unpickled
         assert_same_params(params(model), params(loaded))
         after, _ = loaded.predict(obs, deterministic=True)
         np.testing.assert_array_equal(before, after)

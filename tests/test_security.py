@@ -136,3 +136,55 @@ def test_a_minari_id_outside_the_store_is_refused_before_anything_is_written(dem
         demo.to_minari(dataset_id)
     assert os.listdir(tmp_path) == []
     assert check_minari_id("ns/sub/cartpole-expert-v0") == "ns/sub/cartpole-expert-v0"
+
+
+def _crafted_zip(source, target, marker, key="policy_class"):
+    """A copy of ``source`` whose data entry ``key`` is a cloudpickle payload that creates ``marker`` when unpickled."""
+    import base64
+    import json
+    import zipfile
+
+    import cloudpickle
+
+    class Payload:
+        def __reduce__(self):
+            return (open, (str(marker), "w"))
+
+    with zipfile.ZipFile(source) as src, zipfile.ZipFile(target, "w") as dst:
+        for item in src.namelist():
+            content = src.read(item)
+            if item == "data":
+                data = json.loads(content)
+                data[key] = {":type:": "<class 'x'>", ":serialized:": base64.b64encode(cloudpickle.dumps(Payload())).decode()}
+                content = json.dumps(data).encode()
+            dst.writestr(item, content)
+    return target
+
+
+def test_a_crafted_zip_runs_no_code_in_safe_mode(demo, tmp_path):
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=demo, seed=0)
+    model.save(tmp_path / "m.zip")
+    marker = tmp_path / "code-ran"
+    crafted = _crafted_zip(tmp_path / "m.zip", tmp_path / "crafted.zip", marker)
+    loaded = BC.load(crafted, safe=True)  # policy_class is rebuilt from the class, the payload never unpickled
+    assert not marker.exists()
+    assert loaded.policy_class is BC.policy_aliases["MlpPolicy"]
+    unknown = _crafted_zip(tmp_path / "m.zip", tmp_path / "unknown.zip", marker, key="evil")
+    with pytest.raises(ValueError, match="evil: expected entries safe mode can rebuild"):
+        BC.load(unknown, safe=True)
+    assert not marker.exists()
+    with pytest.raises(TypeError):  # the default (SB3's own) load unpickles, which is what the docstring warns about:
+        BC.load(crafted)  # the payload runs (and its result is no policy class)
+    assert marker.exists()
+
+
+def test_a_zip_without_the_plain_description_is_refused_in_safe_mode(demo, tmp_path):
+    import zipfile
+
+    BC("MlpPolicy", "CartPole-v1", expert_data=demo).save(tmp_path / "m.zip")
+    with zipfile.ZipFile(tmp_path / "m.zip") as src, zipfile.ZipFile(tmp_path / "old.zip", "w") as dst:
+        for item in src.namelist():
+            if item != "sb3_mbil.json":
+                dst.writestr(item, src.read(item))
+    with pytest.raises(ValueError, match="expected a zip with sb3_mbil.json"):
+        BC.load(tmp_path / "old.zip", safe=True)

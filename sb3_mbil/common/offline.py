@@ -30,6 +30,7 @@ from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demons
 from sb3_mbil.common.files import atomic_write
 from sb3_mbil.common.losses import bc_loss
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
+from sb3_mbil.common.safe_load import add_description, check_version, safe_custom_objects
 from sb3_mbil.common.threads import torch_threads, training_threads
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
@@ -175,39 +176,70 @@ class OfflineAlgorithm(BaseAlgorithm):
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | os.PathLike | io.BufferedIOBase, exclude=None, include=None) -> None:
-        """SB3's ``save``, written whole or not at all: a failed or killed save leaves the old zip intact."""
+        """SB3's ``save``, written whole or not at all: a failed or killed save leaves the old zip intact. The zip
+        also holds a plain-JSON description of the entries SB3 pickles, so that it loads with ``safe=True``."""
         if not isinstance(path, (str, os.PathLike)):
-            return super().save(path, exclude, include)
+            super().save(path, exclude, include)
+            path.seek(0)
+            add_description(path, self)
+            return
         target = Path(path)
         if target.suffix == "":
             target = target.with_suffix(".zip")  # as SB3 names it
         with atomic_write(target) as tmp:
             super().save(tmp, exclude, include)
+            add_description(tmp, self)
 
     @classmethod
     def load(cls, path, env: GymEnv | str | None = None, device: th.device | str = "auto", custom_objects=None,
-             print_system_info: bool = False, force_reset: bool = True, **kwargs):
+             print_system_info: bool = False, force_reset: bool = True, safe: bool = False, **kwargs):
         """SB3's ``load``; ``env`` may be an env id (as in the constructor), the zip is checked to be one of ``cls``
-        first, and ``expert_data`` given here is checked at once."""
+        first, and ``expert_data`` given here is checked at once.
+
+        .. warning:: A model zip can hold pickled objects, and unpickling runs code: as with every SB3 algorithm,
+           ``load`` a zip only from a source you trust, or pass ``safe=True``.
+
+        :param safe: unpickle nothing: every pickled entry is rebuilt from the algorithm class and the zip's plain
+            JSON (:mod:`sb3_mbil.common.safe_load`), the weights are read with ``torch.load(weights_only=True)``, and
+            a zip holding an entry that cannot be rebuilt is refused with a ``ValueError``. Every zip this package
+            writes loads this way.
+        """
+        raw, where = None, "model zip"
         if isinstance(path, (str, os.PathLike)):
-            cls._check_saved_by(Path(path))
+            target = Path(path)
+            if not target.exists() and target.suffix == "":
+                target = target.with_suffix(".zip")
+            where = str(target)
+            if target.is_file():
+                raw = target.read_bytes()  # read once: what is checked is what is loaded
+                cls._check_saved_by(target, raw)
+        if raw is not None:
+            check_version(raw, where)
+        if safe:
+            if raw is None:
+                if not hasattr(path, "read"):
+                    raise FileNotFoundError(f"model zip not found: {path}")
+                raw = path.read()
+            objects = safe_custom_objects(cls, raw, where)
+            custom_objects = {**objects, **(custom_objects or {})}
         if isinstance(env, str):
             env = gym.make(env)
-        model = super().load(path, env=env, device=device, custom_objects=custom_objects,
-                             print_system_info=print_system_info, force_reset=force_reset, **kwargs)
+        model = super().load(io.BytesIO(raw) if raw is not None else path, env=env, device=device,
+                             custom_objects=custom_objects, print_system_info=print_system_info,
+                             force_reset=force_reset, **kwargs)
         if model.expert_data is not None and model.env is not None:
             model.demonstrations()
         return model
 
     @classmethod
-    def _check_saved_by(cls, path: Path) -> None:
+    def _check_saved_by(cls, path: Path, raw: bytes | None = None) -> None:
         """Refuse, naming the file and both algorithms, a zip that another algorithm (or library) saved."""
         if not path.exists() and path.suffix == "":
             path = path.with_suffix(".zip")
-        if not path.is_file():
+        if raw is None and not path.is_file():
             return  # SB3 raises its FileNotFoundError
         try:
-            with zipfile.ZipFile(path) as archive:
+            with zipfile.ZipFile(io.BytesIO(raw) if raw is not None else path) as archive:
                 data = json.loads(archive.read("data"))
         except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as e:
             raise ValueError(f"{path}: expected a model zip saved by {cls.__name__}.save, found an unreadable file "
