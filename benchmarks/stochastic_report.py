@@ -1,0 +1,183 @@
+"""The stochastic-demonstrator results page, generated from the study's CSVs (benchmarks/stochastic.py).
+
+    python -m benchmarks.stochastic_report --out results/stochastic.md
+
+Reads ``results/stochastic/tuning_<env>.csv`` (tuning seeds >= 100), ``results/stochastic/<env>.csv`` (the grids,
+seeds 0-9) and ``results/stochastic/crossover_<env>.csv`` (the noise families, seeds 0-4). Each algorithm's tuned
+variant for (env, pool, N) is its best mean over the tuning seeds (BC's is BC*); every comparison pairs seeds (the
+same draw of trajectories) and gives the mean difference with its 95% Student-t interval.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import re
+from collections import defaultdict
+
+import numpy as np
+
+from benchmarks.stochastic import best_variants, variants_for
+from sb3_mbil.benchmark.report import paired_interval
+from sb3_mbil.benchmark.results import read_result_rows, write_text
+
+ALGOS = ("bc", "mbil", "mbil_c")
+
+
+def noise_level(pool: str) -> float:
+    """The noise level of a noise-family pool (``.../LunarLander-v3-noise0.05.npz`` -> 0.05)."""
+    match = re.search(r"noise([0-9.]*[0-9])(\.npz)?$", pool)
+    if match is None:
+        raise ValueError(f"pool: expected a noise-family pool '<env>-noise<level>', found {pool!r}")
+    return float(match.group(1))
+LABEL = {"bc": "BC", "mbil": "MBIL", "mbil_c": "MBIL-C"}
+
+
+def _by_cell(rows):
+    out: dict[tuple, dict[str, dict[int, float]]] = defaultdict(lambda: defaultdict(dict))
+    for r in rows:
+        out[(r["env"], r["pool"], int(r["n_trajectories"]))][r["variant"]][int(r["seed"])] = float(r["mean_return"])
+    return out
+
+
+def tuning_table(rows) -> tuple[str, dict]:
+    """Markdown: each variant's mean over the tuning seeds per (env, pool, N); and the chosen variants."""
+    lines, chosen = [], {}
+    for (env, pool, n), variants in sorted(_by_cell(rows).items()):
+        best = best_variants(rows, env, pool, n)
+        chosen[(env, pool, n)] = best
+        seeds = sorted({s for v in variants.values() for s in v})
+        lines += [f"**{env}, pool {pool}, N = {n}** (tuning seeds {', '.join(map(str, seeds))})", "",
+                  "| variant | mean return | per seed |", "|---|---|---|"]
+        for name in sorted(variants, key=lambda v: (variants_for(env)[v].algo if v in variants_for(env) else v, v)):
+            vals = variants[name]
+            mark = " **(best)**" if name in best.values() else ""
+            lines.append(f"| {name}{mark} | {np.mean(list(vals.values())):.1f} | "
+                         f"{', '.join(f'{vals[s]:.0f}' for s in sorted(vals))} |")
+        lines.append("")
+    return "\n".join(lines), chosen
+
+
+def _verdict(d: np.ndarray) -> str:
+    if len(d) < 2:
+        return f"{d.mean():+.1f} (1 seed)"
+    lo, hi = paired_interval(d)
+    word = "above" if lo > 0 else ("below" if hi < 0 else "level")
+    return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] {word}"
+
+
+def grid_table(rows, chosen) -> str:
+    """Per (env, pool, N): BC, BC*, MBIL, MBIL*, MBIL-C, MBIL-C* means, and each against BC* and BC, paired."""
+    lines = []
+    for (env, pool, n), variants in sorted(_by_cell(rows).items()):
+        best = chosen.get((env, pool, n), {})
+        columns = []
+        for algo in ALGOS:
+            columns.append((LABEL[algo], algo))
+            if best.get(algo) and best[algo] != algo:
+                columns.append((f"{LABEL[algo]}* ({best[algo]})", best[algo]))
+        reference = best.get("bc", "bc")
+        lines += [f"**{env}, pool {pool}, N = {n}** (BC* = {reference})", "",
+                  "| algorithm | seeds | mean return | minus BC*, paired (95% CI) | minus BC, paired (95% CI) |",
+                  "|---|---|---|---|---|"]
+        for label, name in columns:
+            vals = variants.get(name, {})
+            if not vals:
+                lines.append(f"| {label} | 0 | not run yet | | |")
+                continue
+            row = [label, str(len(vals)), f"{np.mean(list(vals.values())):.1f}"]
+            for ref in (reference, "bc"):
+                common = sorted(set(vals) & set(variants.get(ref, {})))
+                if name == ref or not common:
+                    row.append("")
+                else:
+                    row.append(_verdict(np.array([vals[s] - variants[ref][s] for s in common])))
+            lines.append("| " + " | ".join(row) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def crossover_table(rows, chosen_by_pool) -> str:
+    """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds)."""
+    cells = _by_cell(rows)
+    lines = []
+    for env, n in sorted({(e, n) for e, _, n in cells}):
+        pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
+        lines += [f"**{env}, N = {n}**", "", "| noise | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* |",
+                  "|---|---|---|---|---|---|---|"]
+        for pool in pools:
+            variants = cells[(env, pool, n)]
+            star = chosen_by_pool.get((env, pool, n), {}).get("bc", "bc")
+
+            def cell(name):
+                v = np.array(list(variants.get(name, {}).values()))
+                return "" if len(v) == 0 else f"{v.mean():.1f} +- {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.1f}"
+
+            def diff(name):
+                common = sorted(set(variants.get(name, {})) & set(variants.get(star, {})))
+                return "" if not common else _verdict(np.array([variants[name][s] - variants[star][s] for s in common]))
+
+            lines.append(f"| {noise_level(pool):g} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
+                         f"{cell('mbil_c')} | {diff('mbil')} | {diff('mbil_c')} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot_crossover(rows, chosen_by_pool, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sb3_mbil.common.files import atomic_write
+
+    cells = _by_cell(rows)
+    keys = sorted({(e, n) for e, _, n in cells})
+    if not keys:
+        return
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.5 * len(keys), 3.5), squeeze=False)
+    for ax, (env, n) in zip(axes[0], keys):
+        pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
+        levels = [noise_level(p) for p in pools]
+        for label, pick in (("BC", lambda p: "bc"), ("BC*", lambda p: chosen_by_pool.get((env, p, n), {}).get("bc", "bc")),
+                            ("MBIL", lambda p: "mbil"), ("MBIL-C", lambda p: "mbil_c")):
+            means = [np.mean(list(cells[(env, p, n)].get(pick(p), {np.nan: np.nan}).values())) for p in pools]
+            ax.plot(levels, means, marker="o", label=label)
+        ax.set_title(f"{env}, N = {n}")
+        ax.set_xlabel("demonstrator noise (epsilon or sigma / range)")
+        ax.set_ylabel("return")
+    axes[0][0].legend()
+    fig.tight_layout()
+    with atomic_write(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=100)
+    plt.close(fig)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--folder", default="results/stochastic")
+    parser.add_argument("--out", default="results/stochastic.md")
+    args = parser.parse_args(argv)
+    tuning = [r for f in sorted(glob.glob(os.path.join(args.folder, "tuning_*.csv"))) for r in read_result_rows(f)]
+    grid = [r for f in sorted(glob.glob(os.path.join(args.folder, "*.csv")))
+            if not os.path.basename(f).startswith(("tuning_", "crossover_")) for r in read_result_rows(f)]
+    cross = [r for f in sorted(glob.glob(os.path.join(args.folder, "crossover_*.csv"))) for r in read_result_rows(f)]
+    tuned, chosen = tuning_table(tuning)
+    commits = sorted({r["commit"] for r in tuning + grid + cross})
+    text = ["# Stochastic demonstrators: results", "",
+            "Generated by `python -m benchmarks.stochastic_report` from the CSVs in `results/stochastic/` (rows made by "
+            "`python -m benchmarks.stochastic`, commands in `benchmarks/runs/stochastic_*.sh`; commits of the rows: "
+            f"{', '.join(commits)}). Returns are means over each run's evaluation episodes (100 for tuning and the "
+            "noise crossover, 300 for the grids); intervals are 95% Student-t intervals of paired differences over "
+            "seeds (the same draw of trajectories for both). 'above'/'below': the interval excludes zero.", "",
+            "## The grids (seeds 0-9)", "", grid_table(grid, chosen), "",
+            "## The noise crossover (seeds 0-4)", "", crossover_table(cross, chosen), "",
+            "![crossover](stochastic_crossover.png)", "",
+            "## Tuning (seeds 100-102; the one budget of every algorithm)", "", tuned]
+    write_text(args.out, "\n".join(text) + "\n")
+    plot_crossover(cross, chosen, os.path.join(os.path.dirname(args.out) or ".", "stochastic_crossover.png"))
+
+
+if __name__ == "__main__":
+    main()
