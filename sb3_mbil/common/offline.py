@@ -8,6 +8,7 @@ for evaluation only. One gradient step is one timestep and one
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -36,6 +37,24 @@ from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples
 from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
 
 SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
+
+
+def encode_numpy_state(state: tuple) -> th.Tensor:
+    """numpy's legacy global state (MT19937) as one int64 tensor: 624 keys, position, has_gauss, cached gaussian's
+    bits (a tensor, so that it is saved with the model's torch variables and loaded with ``weights_only``)."""
+    name, keys, pos, has_gauss, cached = state
+    if name != "MT19937":
+        raise ValueError(f"numpy random state: expected MT19937, found {name!r}")
+    tail = np.array([pos, has_gauss], dtype=np.int64)
+    return th.from_numpy(np.concatenate([keys.astype(np.int64), tail, np.array([cached]).view(np.int64)]))
+
+
+def decode_numpy_state(encoded: th.Tensor) -> tuple:
+    values = encoded.cpu().numpy().astype(np.int64)
+    if values.shape != (627,):
+        raise ValueError(f"_rng_numpy: expected 627 entries (numpy's MT19937 state), found shape {values.shape}")
+    return ("MT19937", values[:624].astype(np.uint32), int(values[624]), int(values[625]),
+            float(values[626:627].view(np.float64)[0]))
 
 
 def check_spaces(observation_space: spaces.Space, action_space: spaces.Space,
@@ -149,10 +168,37 @@ class OfflineAlgorithm(BaseAlgorithm):
         kwargs["optimizer_kwargs"] = {**kwargs.get("optimizer_kwargs", {}), "weight_decay": self.weight_decay}
         self.policy = self.policy_class(self.observation_space, self.action_space, self.lr_schedule, **kwargs).to(self.device)
         self._on_new_data()
+        # the training stream: empty until the first learn, which starts it from the global generators as they are
+        # then (the seed's state, after every network of the algorithm is initialised)
+        self._rng_torch = th.empty(0, dtype=th.uint8)
+        self._rng_numpy = th.empty(0, dtype=th.int64)
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
-        # The optimiser is saved too: training continued after load is training continued in memory.
-        return ["policy", "policy.optimizer"], []
+        # The optimiser is saved too, and the random state of training: training continued after load is training
+        # continued in memory, bit for bit.
+        return ["policy", "policy.optimizer"], ["_rng_torch", "_rng_numpy"]
+
+    # ------------------------------------------------------------------ random state
+    def _capture_rng(self) -> None:
+        """Keep the global generators' current state as the model's training stream."""
+        self._rng_torch = th.get_rng_state()
+        self._rng_numpy = encode_numpy_state(np.random.get_state())
+
+    @contextlib.contextmanager
+    def _training_rng(self):
+        """Train on the model's own random stream: torch's and numpy's global generators are set to the state the
+        last ``learn`` left them in (or the seed's), and given back to the caller afterwards. The stream is saved
+        in the zip, so ``save``, ``load``, ``learn`` draws what ``learn`` continued in memory would."""
+        caller = (th.get_rng_state(), np.random.get_state())
+        if len(self._rng_torch):
+            th.set_rng_state(self._rng_torch)
+            np.random.set_state(decode_numpy_state(self._rng_numpy))
+        try:
+            yield
+        finally:
+            self._capture_rng()
+            th.set_rng_state(caller[0])
+            np.random.set_state(caller[1])
 
     def torch_modules(self) -> dict[str, th.nn.Module]:
         """Every torch module the zip holds (``_get_torch_save_params``), by name."""
@@ -399,7 +445,7 @@ class OfflineAlgorithm(BaseAlgorithm):
         ``SB3_MBIL_TORCH_THREADS`` or 1; :mod:`sb3_mbil.common.threads`) and restores the caller's setting after.
         """
         threads = getattr(self, "torch_threads", None)
-        with torch_threads(training_threads() if threads is None else threads):
+        with torch_threads(training_threads() if threads is None else threads), self._training_rng():
             return self._learn(total_timesteps, callback, log_interval, tb_log_name, reset_num_timesteps, progress_bar)
 
     def _learn(self: SelfOffline, total_timesteps: int, callback: MaybeCallback, log_interval: int,
