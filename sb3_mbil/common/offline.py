@@ -34,7 +34,8 @@ from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 from sb3_mbil.common.safe_load import add_description, check_version, safe_custom_objects
 from sb3_mbil.common.threads import torch_threads, training_threads
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
-from sb3_mbil.common.validation import check_int, check_learning_rate, check_real, check_seed
+from sb3_mbil.common.validation import (CheckedSchedule, check_int, check_learning_rate, check_policy_kwargs,
+                                       check_real, check_seed)
 
 SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
 
@@ -158,6 +159,12 @@ class OfflineAlgorithm(BaseAlgorithm):
         self.batch_size = check_int("batch_size", self.batch_size, low=1)
         self.weight_decay = check_real("weight_decay", self.weight_decay, low=0.0)
         self.seed = check_seed("seed", self.seed)
+        self.policy_kwargs = check_policy_kwargs(self.policy_class, self.policy_kwargs)
+
+    def _setup_lr_schedule(self) -> None:
+        # every value the schedule returns is checked where it is used (NaN or a string would reach torch or SB3)
+        self.lr_schedule = CheckedSchedule("learning_rate", self.learning_rate)
+        self.lr_schedule(1.0)
 
     def _setup_model(self) -> None:
         """Build from the hyperparameters alone (``load`` calls it before restoring the state dicts)."""
