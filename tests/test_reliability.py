@@ -252,3 +252,42 @@ def test_every_tried_fault_gives_a_clean_error():
     cases = run_cases()
     assert len(cases) > 200
     assert all(c.outcome == "clean" for c in cases), table(cases)
+
+
+# ---------------------------------------------------------------------------------------------- round three
+def test_values_of_the_wrong_type_are_refused_or_kept_exactly(demo, tmp_path):
+    with pytest.raises(ValueError, match="episode_return: expected a number"):
+        Trajectory(np.zeros((3, 4)), np.zeros(2, dtype=np.int64), episode_return="abc")
+    pool = load_demonstrations("CartPole-v1")
+    for n in (True, np.bool_(True)):
+        with pytest.raises(ValueError, match=r"n: expected an integer in \[1, 1000\]"):
+            pool.sample(n)
+    for seed in (-1, True, 1.5, "5"):
+        with pytest.raises(ValueError, match="seed: expected None or an integer >= 0"):
+            pool.sample(2, seed=seed)
+    drawn = pool.sample(np.int64(2), seed=np.int64(5))
+    assert drawn.metadata["sampled"]["indices"] == pool.sample(2, seed=5).metadata["sampled"]["indices"]
+    drawn.metadata["user_value"] = np.float32(0.5)
+    again = Demonstrations.load(drawn.save(tmp_path / "d.npz"))
+    assert again.metadata["sampled"]["seed"] == 5 and type(again.metadata["sampled"]["seed"]) is int
+    assert again.metadata["user_value"] == 0.5
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=drawn)
+    model.save(tmp_path / "m.zip")
+    info = BC.load(tmp_path / "m.zip", safe=True).expert_info
+    assert info["draw_seed"] == 5 and type(info["draw_seed"]) is int
+
+
+def test_expert_data_cannot_change_under_a_running_update(demo):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Swap(BaseCallback):
+        def _on_step(self):
+            if self.n_calls == 2:
+                self.model.set_expert_data(load_demonstrations("CartPole-v1").sample(1, seed=3))
+            return True
+
+    model = make("mbil", demo)
+    with pytest.raises(ValueError, match="expert_data: expected no change while learn trains on the data"):
+        model.learn(5, callback=Swap())
+    model.set_expert_data(load_demonstrations("CartPole-v1").sample(1, seed=3))  # between learns: fine
+    model.learn(2)

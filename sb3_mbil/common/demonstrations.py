@@ -102,7 +102,10 @@ class Trajectory:
         object.__setattr__(self, "actions", act)
         object.__setattr__(self, "terminated", bool(self.terminated))
         object.__setattr__(self, "truncated", bool(self.truncated))
-        object.__setattr__(self, "episode_return", float(self.episode_return))
+        ret = self.episode_return
+        if isinstance(ret, (bool, np.bool_)) or not isinstance(ret, (int, float, np.integer, np.floating)):
+            raise ValueError(f"episode_return: expected a number (nan when unknown), found {ret!r}")
+        object.__setattr__(self, "episode_return", float(ret))
 
     def __len__(self) -> int:
         return len(self.actions)
@@ -170,8 +173,12 @@ class Demonstrations:
 
     def sample(self, n: int, seed: int | None = None) -> Demonstrations:
         """Draw ``n`` distinct trajectories, deterministically for a given seed (the paper's protocol)."""
-        if not isinstance(n, (int, np.integer)) or n < 1 or n > len(self):
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1 or n > len(self):
             raise ValueError(f"n: expected an integer in [1, {len(self)}], found {n!r}")
+        if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer))
+                                 or seed < 0):
+            raise ValueError(f"seed: expected None or an integer >= 0, found {seed!r}")
+        seed = None if seed is None else int(seed)
         rng = np.random.default_rng(seed)
         idx = rng.choice(len(self), size=int(n), replace=False)
         meta = dict(self.metadata)
@@ -233,7 +240,7 @@ class Demonstrations:
         """Where these trajectories came from, in plain types (saved with a model; named in its Hub model card)."""
         meta, sampled = self.metadata, self.metadata.get("sampled") or {}
         expert = meta.get("expert")
-        return {
+        info = {
             "env_id": meta.get("env_id"),
             "pool": meta.get("pool"),
             "expert": (expert.get("source") if isinstance(expert, dict) else None) or meta.get("source"),
@@ -242,6 +249,7 @@ class Demonstrations:
             "draw_seed": sampled.get("seed"),
             "pool_indices": sampled.get("indices"),
         }
+        return json.loads(json.dumps(info, default=_json_value))  # plain JSON types (a model zip stores it as JSON)
 
     # ------------------------------------------------------------------ views
     def pairs(self) -> dict[str, np.ndarray]:
@@ -350,7 +358,7 @@ class Demonstrations:
             "terminated": np.array([t.terminated for t in self.trajectories], dtype=bool),
             "truncated": np.array([t.truncated for t in self.trajectories], dtype=bool),
             "episode_returns": self.episode_returns,
-            "metadata_json": np.array(json.dumps(self.metadata, sort_keys=True, default=str)),
+            "metadata_json": np.array(json.dumps(self.metadata, sort_keys=True, default=_json_value)),
         }
         finals = [t.final_action for t in self.trajectories if t.final_action is not None]
         if finals:  # pieces of longer episodes (format 2; a format-1 reader refuses the file instead of losing them)
@@ -512,6 +520,18 @@ class Demonstrations:
             except ValueError as e:
                 raise ValueError(f"{path}: trajectories[{i}]: {e}") from e
         return cls(trajs, meta)
+
+
+def _json_value(value: Any) -> Any:
+    """Metadata values JSON does not know: numpy scalars and arrays as numbers and lists (a draw seed np.int64(5)
+    comes back as 5, not '5'), anything else as its text."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (set, frozenset)):
+        return sorted(value, key=str)
+    return str(value)
 
 
 def _check_actions(name: str, actions: np.ndarray, action_space: spaces.Space) -> None:

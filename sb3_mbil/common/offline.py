@@ -306,10 +306,16 @@ class OfflineAlgorithm(BaseAlgorithm):
     # ------------------------------------------------------------------ data
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
-        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats", "_parameters"]
+        return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats", "_parameters",
+                "_data_in_use"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
-        """Give (or replace) the expert data, e.g. after ``load`` to continue learning."""
+        """Give (or replace) the expert data, e.g. after ``load`` to continue learning. Inside ``learn`` only a
+        callback's ``on_training_start`` may do so (before anything is fitted to the data)."""
+        if getattr(self, "_data_in_use", False):
+            raise ValueError("expert_data: expected no change while learn trains on the data (models fitted to it "
+                             "and the training caches would no longer match), found set_expert_data called from a "
+                             "callback after training started; call it before learn, or in on_training_start")
         self.expert_data = expert_data
         self._demonstrations = None
         self._on_new_data()
@@ -474,6 +480,13 @@ class OfflineAlgorithm(BaseAlgorithm):
         if getattr(self.policy, "normalize_observations", False) and not bool(self.policy.obs_stats_set):
             # set once (kept by save/load and by set_expert_data, so continued training sees the same inputs)
             self.policy.set_observation_stats(self.expert_pairs().observations)
+        self._data_in_use = True
+        try:
+            return self._train(total_timesteps, callback, log_interval)
+        finally:
+            self._data_in_use = False
+
+    def _train(self: SelfOffline, total_timesteps: int, callback, log_interval: int) -> SelfOffline:
         self._prepare_training()
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
