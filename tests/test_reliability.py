@@ -291,3 +291,56 @@ def test_expert_data_cannot_change_under_a_running_update(demo):
         model.learn(5, callback=Swap())
     model.set_expert_data(load_demonstrations("CartPole-v1").sample(1, seed=3))  # between learns: fine
     model.learn(2)
+
+
+def _rewrite_zip(src, dst, change):
+    import zipfile
+
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(dst, "w") as b:
+        for name in a.namelist():
+            content = change(name, a.read(name))
+            if content is not None:
+                b.writestr(name, content)
+    return dst
+
+
+def test_loading_says_what_is_wrong_with_a_zip(demo, tmp_path):
+    import json
+    import warnings
+    import zipfile
+
+    BC("MlpPolicy", "CartPole-v1", expert_data=demo).save(tmp_path / "b.zip")
+
+    def older_and_newer(name, content):
+        if name == "data":
+            data = json.loads(content)
+            del data["weight_decay"]
+            return json.dumps({**data, "future_knob": 3})
+        return b"9.9.9" if name == "_stable_baselines3_version" else content
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        BC.load(_rewrite_zip(tmp_path / "b.zip", tmp_path / "c.zip", older_and_newer))
+    text = " | ".join(str(w.message) for w in caught)
+    assert "newer than the installed" in text and "the zip has no ['weight_decay']" in text and "['future_knob']" in text
+    garbage = _rewrite_zip(tmp_path / "b.zip", tmp_path / "g.zip", lambda n, c: b"\x00" * 9 if n == "policy.pth" else c)
+    with pytest.raises(ValueError, match="policy.pth: expected torch weights"):
+        BC.load(garbage)
+    BC("MlpPolicy", "CartPole-v1", expert_data=demo, policy_kwargs=dict(net_arch=[8])).save(tmp_path / "small.zip")
+    other = zipfile.ZipFile(tmp_path / "small.zip").read("policy.pth")
+    mismatch = _rewrite_zip(tmp_path / "b.zip", tmp_path / "x.zip", lambda n, c: other if n == "policy.pth" else c)
+    with pytest.raises(ValueError, match="expected weights that fit the networks BC builds"):
+        BC.load(mismatch)
+    make("mbil", demo).save(tmp_path / "mbil.zip")
+    relabelled = _rewrite_zip(tmp_path / "mbil.zip", tmp_path / "r.zip", lambda n, c: json.dumps(
+        {**json.loads(c), "algorithm": "BC"}) if n == "data" else c)
+    with pytest.raises(ValueError, match="expected weights that fit the networks BC builds"):
+        BC.load(relabelled)
+
+
+@pytest.mark.skipif(th.cuda.is_available(), reason="checks the CPU fallback")
+def test_cuda_without_a_gpu_is_said(demo, tmp_path):
+    with pytest.warns(UserWarning, match="torch sees no CUDA device"):
+        BC("MlpPolicy", "CartPole-v1", expert_data=demo, device="cuda").save(tmp_path / "m.zip")
+    with pytest.warns(UserWarning, match="torch sees no CUDA device"):
+        BC.load(tmp_path / "m.zip", device="cuda")

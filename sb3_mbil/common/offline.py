@@ -31,13 +31,20 @@ from sb3_mbil.common.demonstrations import Demonstrations, ExpertData, as_demons
 from sb3_mbil.common.files import atomic_write
 from sb3_mbil.common.losses import bc_loss
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
-from sb3_mbil.common.safe_load import add_description, check_version, safe_custom_objects
+from sb3_mbil.common.safe_load import (add_description, check_members, check_version, safe_custom_objects,
+                                      warn_unknown_entries)
 from sb3_mbil.common.threads import torch_threads, training_threads
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import (CheckedSchedule, check_int, check_learning_rate, check_policy_kwargs,
                                        check_real, check_seed)
 
 SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
+
+
+def warn_if_no_device(device: th.device | str) -> None:
+    """SB3 falls back to the CPU without a word when CUDA is asked for and absent: say so."""
+    if str(device).startswith("cuda") and not th.cuda.is_available():
+        warnings.warn(f"device: {device!r} asked for, but torch sees no CUDA device: running on the CPU", stacklevel=3)
 
 
 def encode_numpy_state(state: tuple) -> th.Tensor:
@@ -122,6 +129,7 @@ class OfflineAlgorithm(BaseAlgorithm):
     ):
         if hasattr(env, "observation_space") and hasattr(env, "action_space"):
             self._check_spaces(env.observation_space, env.action_space)  # before SB3's own checks
+        warn_if_no_device(device)
         super().__init__(
             policy=policy,
             env=env,
@@ -268,6 +276,7 @@ class OfflineAlgorithm(BaseAlgorithm):
                 cls._check_saved_by(target, raw)
         if raw is not None:
             check_version(raw, where)
+            check_members(cls, raw, where)
         if safe:
             if raw is None:
                 if not hasattr(path, "read"):
@@ -277,9 +286,21 @@ class OfflineAlgorithm(BaseAlgorithm):
             custom_objects = {**objects, **(custom_objects or {})}
         if isinstance(env, str):
             env = gym.make(env)
-        model = super().load(io.BytesIO(raw) if raw is not None else path, env=env, device=device,
-                             custom_objects=custom_objects, print_system_info=print_system_info,
-                             force_reset=force_reset, **kwargs)
+        warn_if_no_device(device)
+        try:
+            model = super().load(io.BytesIO(raw) if raw is not None else path, env=env, device=device,
+                                 custom_objects=custom_objects, print_system_info=print_system_info,
+                                 force_reset=force_reset, **kwargs)
+        except (RuntimeError, ValueError) as e:
+            text = str(e)
+            if "Error(s) in loading state_dict" in text or "invalid object name" in text or "size mismatch" in text:
+                first = text.strip().splitlines()[0]
+                raise ValueError(f"{where}: expected weights that fit the networks {cls.__name__} builds from the "
+                                 f"zip's settings, found a mismatch ({first}; a zip of another algorithm or of other "
+                                 "settings?)") from None
+            raise
+        if raw is not None:
+            warn_unknown_entries(model, raw, where)
         if model.expert_data is not None and model.env is not None:
             model.demonstrations()
         return model

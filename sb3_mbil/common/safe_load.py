@@ -209,3 +209,64 @@ def check_version(raw: bytes, where: str) -> None:
     if newer:
         warnings.warn(f"{where}: saved by sb3_mbil {saved}, newer than this {__version__}: settings it added are "
                       "unknown here and may load with other meanings", stacklevel=3)
+
+
+def check_members(cls, raw: bytes, where: str) -> None:
+    """Before SB3 reads the zip: every ``.pth`` member readable as weights (``weights_only``), named when it is not;
+    a warning for a zip written by a newer Stable-Baselines3, for hyperparameters of ``cls`` the zip lacks (they
+    load with the constructor's defaults, which may disagree with the saved optimiser) and for entries ``cls`` does
+    not know (written by another version: they are set on the model but nothing reads them)."""
+    import inspect
+
+    import stable_baselines3
+    import torch as th
+    from packaging.version import InvalidVersion, Version
+
+    with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+        names = archive.namelist()
+        data = json.loads(archive.read("data"))
+        for member in names:
+            if member.endswith(".pth"):
+                try:
+                    th.load(io.BytesIO(archive.read(member)), map_location="cpu", weights_only=True)
+                except Exception as e:
+                    first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+                    raise ValueError(f"{where}: {member}: expected torch weights (a state dict saved by torch.save), "
+                                     f"found a member torch cannot read as weights ({type(e).__name__}: {first})") from None
+        saved_sb3 = archive.read("_stable_baselines3_version").decode().strip() \
+            if "_stable_baselines3_version" in names else None
+    try:
+        if saved_sb3 and Version(saved_sb3) > Version(stable_baselines3.__version__):
+            warnings.warn(f"{where}: saved with Stable-Baselines3 {saved_sb3}, newer than the installed "
+                          f"{stable_baselines3.__version__}", stacklevel=3)
+    except InvalidVersion:
+        warnings.warn(f"{where}: _stable_baselines3_version: expected a version, found {saved_sb3!r}", stacklevel=3)
+    params = [p for p in inspect.signature(cls.__init__).parameters
+              if p not in ("self", "policy", "env", "expert_data", "device", "_init_setup_model", "tensorboard_log",
+                           "verbose")]
+    missing = [p for p in params if p not in data]
+    if missing:
+        warnings.warn(f"{where}: the zip has no {missing}: loaded with {cls.__name__}'s defaults for them, which may "
+                      "not be what it was trained with (a zip of an older version?)", stacklevel=3)
+
+
+def warn_unknown_entries(model, raw: bytes, where: str) -> None:
+    """Warn about entries of the zip's ``data`` that a model of this class, built with the same spaces, does not have
+    (a hyperparameter of another version: set on the model, but nothing here reads it)."""
+    import gymnasium as gym
+    import torch as th
+
+    class Spaces(gym.Env):
+        observation_space, action_space = model.observation_space, model.action_space
+
+    with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+        keys = list(json.loads(archive.read("data")))
+    state = np.random.get_state()
+    with th.random.fork_rng(), warnings.catch_warnings():  # the probe's initialisation draws nothing of the caller's
+        warnings.simplefilter("ignore")
+        probe = type(model)(policy="MlpPolicy", env=Spaces())
+    np.random.set_state(state)
+    unknown = sorted(k for k in keys if k not in probe.__dict__ and k != "policy_class")
+    if unknown:
+        warnings.warn(f"{where}: entries {unknown} are unknown to {type(model).__name__} (a zip of another "
+                      "version?): they are set on the model, but nothing here reads them", stacklevel=3)
