@@ -344,3 +344,62 @@ def test_cuda_without_a_gpu_is_said(demo, tmp_path):
         BC("MlpPolicy", "CartPole-v1", expert_data=demo, device="cuda").save(tmp_path / "m.zip")
     with pytest.warns(UserWarning, match="torch sees no CUDA device"):
         BC.load(tmp_path / "m.zip", device="cuda")
+
+
+def test_data_files_and_observations_say_what_is_wrong(demo, tmp_path, monkeypatch):
+    import zipfile
+
+    path = demo.save(tmp_path / "d.npz")
+    with zipfile.ZipFile(path) as a, zipfile.ZipFile(tmp_path / "p.npz", "w") as b:
+        for name in a.namelist():
+            b.writestr(name, b"\x80\x04K\x01." if name == "actions.npy" else a.read(name))  # a raw pickle, not .npy
+    with pytest.raises(ValueError, match="actions: expected an array member"):
+        load_demonstrations(tmp_path / "p.npz")
+    if os.path.exists("/dev/null"):
+        with pytest.raises(ValueError, match="expected a regular .npz file, found /dev/null, which exists but is not"):
+            load_demonstrations("/dev/null")
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
+    with pytest.raises(ValueError, match=r"observations: expected per-step shape \(3,\)"):
+        demo.to_minari("ns/fit-v0", observation_space=gym.spaces.Box(-1, 1, (3,)), action_space=gym.spaces.Discrete(2))
+    assert not (tmp_path / "minari").exists()
+    model = BC("MlpPolicy", "CartPole-v1", expert_data=demo)
+    with pytest.raises(ValueError, match="observation: expected numbers, found an array of dtype"):
+        model.predict(np.array(["a", "b", "c", "d"]))
+    with pytest.raises(ValueError, match=r"observation: expected finite values, found nan at index \(1,\)"):
+        model.predict(np.array([0.0, np.nan, 0.0, 0.0], dtype=np.float32))
+    with pytest.raises(ValueError, match=r"observation_space: expected at least one observation dimension"):
+        BC("MlpPolicy", EmptyObs())
+
+
+class EmptyObs(gym.Env):
+    observation_space = gym.spaces.Box(-1, 1, (0,))
+    action_space = gym.spaces.Discrete(2)
+
+
+class HWCImages(gym.Env):
+    observation_space = gym.spaces.Box(0, 255, (8, 8, 3), np.uint8)
+    action_space = gym.spaces.Discrete(2)
+
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed)
+        return self.observation_space.sample(), {}
+
+    def step(self, action):
+        return self.observation_space.sample(), 0.0, False, False, {}
+
+
+def test_images_channels_last_are_explained_and_exported_in_the_envs_layout(tmp_path):
+    pytest.importorskip("onnxruntime")
+    import onnxruntime as ort
+
+    from sb3_mbil import export_policy
+
+    rng = np.random.default_rng(0)
+    hwc = rng.integers(0, 256, size=(21, 8, 8, 3)).astype(np.uint8)
+    actions = rng.integers(0, 2, size=20)
+    with pytest.raises(ValueError, match=r"SB3 trains on images channels first .* np.transpose\(observations, \(0, 3, 1, 2\)\)"):
+        BC("MlpPolicy", HWCImages(), expert_data=[(hwc, actions)])
+    model = BC("MlpPolicy", HWCImages(), expert_data=[(np.transpose(hwc, (0, 3, 1, 2)), actions)], seed=0).learn(20)
+    session = ort.InferenceSession(str(export_policy(model, tmp_path / "p.onnx")))
+    onnx_actions = session.run(None, {"observation": hwc.reshape(21, -1).astype(np.float32)})[0]
+    np.testing.assert_array_equal(onnx_actions, model.predict(hwc, deterministic=True)[0])

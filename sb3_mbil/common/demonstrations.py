@@ -319,9 +319,16 @@ class Demonstrations:
             raise ValueError(f"observation_space: expected a gymnasium Box, found {observation_space}")
         for i, t in enumerate(self.trajectories):
             if t.observations.shape[1:] != observation_space.shape:
+                found, want = t.observations.shape[1:], observation_space.shape
+                hint = ""
+                if len(want) == 3 and found == (want[1], want[2], want[0]):
+                    hint = (": SB3 trains on images channels first (it transposes an env's (H, W, C) images), so give "
+                            "the observations as (C, H, W), e.g. np.transpose(observations, (0, 3, 1, 2))")
+                if len(want) == 1 and want[0] == 0:
+                    hint = ": the env's observations are empty (shape (0,)), there is nothing to learn from"
                 raise ValueError(
-                    f"trajectories[{i}].observations: expected per-step shape {observation_space.shape} "
-                    f"(from the env's observation space), found {t.observations.shape[1:]}"
+                    f"trajectories[{i}].observations: expected per-step shape {want} "
+                    f"(from the env's observation space), found {found}{hint}"
                 )
             if np.issubdtype(observation_space.dtype, np.floating) and not np.can_cast(
                 t.observations.dtype, observation_space.dtype, casting="same_kind"
@@ -421,6 +428,18 @@ class Demonstrations:
             raise ValueError(f"trajectories[{short[0]}]: expected T + 1 observations for Minari, found "
                              f"{len(self.trajectories[short[0]].observations)} for {len(self.trajectories[short[0]])} actions")
         env = env if env is not None else self.metadata.get("env_id")
+        obs_space = observation_space or getattr(env, "observation_space", None)
+        act_space = action_space or getattr(env, "action_space", None)
+        if obs_space is None or act_space is None:
+            try:  # an env id: its spaces, when the env is installed
+                import gymnasium as gym
+
+                made = gym.make(env) if isinstance(env, str) else None
+                obs_space, act_space = obs_space or made.observation_space, act_space or made.action_space
+            except Exception:
+                pass
+        if obs_space is not None and act_space is not None:
+            self.check_spaces(obs_space, act_space)  # before anything is written
         if env is None and (observation_space is None or action_space is None):
             raise ValueError("env: expected an env id (or observation_space and action_space), found None and no env_id "
                              "in the metadata")
@@ -445,6 +464,9 @@ class Demonstrations:
         path = Path(path)
         if path.is_dir():
             raise ValueError(f"expert_data: expected a .npz file, found a directory: {path}")
+        if path.exists() and not path.is_file():
+            raise ValueError(f"expert_data: expected a regular .npz file, found {path}, which exists but is not a "
+                             "regular file (a device, a socket or a pipe)")
         if not path.is_file():
             raise FileNotFoundError(f"expert data file not found: {path}")
         if not zipfile.is_zipfile(path):
@@ -456,6 +478,10 @@ class Demonstrations:
             raise ValueError(f"{path}: expected plain numeric arrays (allow_pickle=False), found {e}") from e
         except Exception as e:
             raise ValueError(f"{path}: expected a readable .npz archive, found a file numpy cannot read ({e})") from e
+        for key, value in arrays.items():
+            if not isinstance(value, np.ndarray):  # numpy hands back a member that is not .npy as raw bytes
+                raise ValueError(f"{path}: {key}: expected an array member (.npy format), found {type(value).__name__} "
+                                 "(a member written some other way, e.g. a raw pickle)")
         missing = [k for k in _REQUIRED_KEYS if k not in arrays]
         if missing:
             raise ValueError(f"{path}: expected keys {list(_REQUIRED_KEYS)}, missing {missing}")
@@ -664,7 +690,7 @@ def load_demonstrations(path_or_name: str | os.PathLike, expert: str | None = No
         demos.metadata["pool"] = path_or_name
         return demos
     path = Path(path_or_name)
-    if path.is_file() or path.is_dir():
+    if path.exists():
         demos = Demonstrations.load(path)
         demos.metadata["pool"] = str(path_or_name)
         return demos

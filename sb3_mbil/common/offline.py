@@ -70,6 +70,9 @@ def check_spaces(observation_space: spaces.Space, action_space: spaces.Space,
     """Refuse, with a clear message, spaces the offline algorithms (or this one: ``supported``) do not support."""
     if not isinstance(observation_space, spaces.Box):
         raise ValueError(f"observation_space: expected a gymnasium Box, found {observation_space}")
+    if int(np.prod(observation_space.shape)) == 0:
+        raise ValueError(f"observation_space: expected at least one observation dimension, found shape "
+                         f"{observation_space.shape}")
     if not isinstance(action_space, (spaces.Discrete, spaces.Box)):
         raise ValueError(f"action_space: expected Discrete or Box, found {action_space}")
     if not isinstance(action_space, supported):
@@ -234,6 +237,17 @@ class OfflineAlgorithm(BaseAlgorithm):
         obs, act = self._to_tensor(pairs["observations"], "obs"), self._to_tensor(pairs["actions"], "act")
         kind = "nll" if isinstance(self.action_space, spaces.Discrete) else "mse"
         return {"bc_loss": float(bc_loss(self.policy, self.policy.heads(obs), act, kind))}
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
+        """SB3's ``predict``, refusing observations that are not finite numbers (a NaN would give an action silently)."""
+        if not isinstance(observation, dict):
+            obs = np.asarray(observation)
+            if obs.dtype.kind not in "biuf":
+                raise ValueError(f"observation: expected numbers, found an array of dtype {obs.dtype}")
+            if obs.dtype.kind == "f" and not np.all(np.isfinite(obs)):
+                idx = tuple(int(i) for i in np.argwhere(~np.isfinite(obs))[0])
+                raise ValueError(f"observation: expected finite values, found {obs[idx]} at index {idx}")
+        return super().predict(observation, state, episode_start, deterministic)
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | os.PathLike | io.BufferedIOBase, exclude=None, include=None) -> None:
