@@ -403,3 +403,38 @@ def test_images_channels_last_are_explained_and_exported_in_the_envs_layout(tmp_
     session = ort.InferenceSession(str(export_policy(model, tmp_path / "p.onnx")))
     onnx_actions = session.run(None, {"observation": hwc.reshape(21, -1).astype(np.float32)})[0]
     np.testing.assert_array_equal(onnx_actions, model.predict(hwc, deterministic=True)[0])
+
+
+def test_results_files_are_parsed_as_csv_records_and_appended_whole(tmp_path, monkeypatch):
+    from sb3_mbil.benchmark import results
+    from sb3_mbil.benchmark.results import append_rows, drop_incomplete_last_line, finished_keys, read_result_rows
+
+    path, columns = tmp_path / "r.csv", ["algo", "seed", "settings"]
+    append_rows(path, [{"algo": "bc", "seed": 0, "settings": "a\nb"}], columns)  # a quoted field with a newline
+    append_rows(path, [{"algo": "bc", "seed": 1, "settings": "c"}], columns)
+    assert drop_incomplete_last_line(path) is None
+    assert [r["settings"] for r in read_result_rows(path)] == ["a\nb", "c"]
+    with open(path, "a") as f:
+        f.write('bc,2,"unterminated\nquote')  # an interrupted append inside a quoted field
+    assert drop_incomplete_last_line(path) is not None
+    assert finished_keys(path, ("algo", "seed")) == {("bc", "0"), ("bc", "1")}
+    with open(path, "a") as f:
+        f.write("bc,3,x\x00y\n")  # a NUL byte in the last record: dropped, its run redone
+    drop_incomplete_last_line(path)
+    assert finished_keys(path, ("algo", "seed")) == {("bc", "0"), ("bc", "1")}
+    text = path.read_text()
+    path.write_text(text.replace("c\n", "c\x00\n") + "bc,4,z\n")  # a NUL byte inside the file: refused, with the line
+    with pytest.raises(ValueError, match=r"r.csv:4: expected text, found a NUL byte"):
+        read_result_rows(path)
+    path.write_text(text)
+
+    real_fsync = os.fsync
+
+    def full_disk(fd):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(results.os, "fsync", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        append_rows(path, [{"algo": "bc", "seed": 5 + i, "settings": ""} for i in range(60)], columns)
+    monkeypatch.setattr(results.os, "fsync", real_fsync)
+    assert path.read_text() == text  # none of the 60 rows: the run is redone whole

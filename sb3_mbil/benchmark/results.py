@@ -20,6 +20,10 @@ def read_result_rows(path: str | os.PathLike) -> list[dict]:
     (a row whose number of fields differs from the header's, or a last line without its newline)."""
     path = Path(path)
     text = path.read_text()
+    if "\x00" in text:
+        n = text[: text.index("\x00")].count("\n") + 1
+        raise ValueError(f"{path}:{n}: expected text, found a NUL byte (a damaged file: restore it from git, or drop "
+                         "that row so that its run is redone)")
     if text and not text.endswith("\n"):
         n = text.count("\n") + 1
         raise ValueError(f"{path}:{n}: expected complete lines, found an unterminated last line (an interrupted write; "
@@ -59,10 +63,29 @@ def locked(path: str | os.PathLike, mode: str) -> Iterator[IO[str]]:
             f.close()
 
 
-def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
-    """Cut an interrupted last line (no newline, or fewer or more fields than the header) off the file, and say so.
+def _records(text: str) -> list[tuple[int, list[str]]]:
+    """The CSV records of ``text`` with the index of the physical line each starts on (a quoted field may span
+    lines); a record that cannot be parsed ends the list with the fields None."""
+    reader = csv.reader(io.StringIO(text, newline=""))
+    out: list[tuple[int, list[str]]] = []
+    start = 0
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return out
+        except csv.Error:
+            out.append((start, None))
+            return out
+        out.append((start, row))
+        start = reader.line_num
 
-    Only the last line can be cut by an interrupted append; the run it belonged to is then redone.
+
+def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
+    """Cut an interrupted last record (no newline, a NUL byte, or fewer or more fields than the header) off the
+    file, and say so. Records are parsed as CSV, so a quoted field that holds a newline is one record, not two.
+
+    Only the last record can be cut by an interrupted append; the run it belonged to is then redone.
     Returns the dropped text, or None.
     """
     path = Path(path)
@@ -70,21 +93,23 @@ def drop_incomplete_last_line(path: str | os.PathLike) -> str | None:
         return None
     with locked(path, "r+") as f:
         text = f.read()
-        complete = text.endswith("\n")
-        lines = text.split("\n")[:-1] if complete else text.split("\n")
-        if len(lines) <= 1:
+        records = _records(text)
+        if len(records) <= 1:
             return None  # empty, or a header only: nothing to drop
-        header, last = next(csv.reader([lines[0]])), lines[-1]
-        if complete and len(next(csv.reader([last]), [])) == len(header):
+        header = records[0][1] or []
+        start, last = records[-1]
+        lines = text.split("\n")
+        tail = "\n".join(lines[start:])
+        if text.endswith("\n") and last is not None and len(last) == len(header) and "\x00" not in tail:
             return None
-        keep = "\n".join(lines[:-1]) + "\n"
+        keep = "\n".join(lines[:start]) + "\n"
         f.seek(0)
         f.truncate()
         f.write(keep)
         f.flush()
         os.fsync(f.fileno())
-    logger.warning("%s: dropped an incomplete last line (an interrupted write), its run is redone: %r", path, last[:80])
-    return last
+    logger.warning("%s: dropped an incomplete last line (an interrupted write), its run is redone: %r", path, tail[:80])
+    return tail
 
 
 def finished_keys(path: str | os.PathLike, key_columns: tuple[str, ...]) -> set[tuple[str, ...]]:
@@ -134,9 +159,15 @@ def append_rows(path: str | os.PathLike, rows: list[dict], columns: list[str]) -
         writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
         for row in rows:
             writer.writerow({c: row.get(c, "") for c in columns})
-        f.write(buf.getvalue())
-        f.flush()
-        os.fsync(f.fileno())
+        size = f.tell()
+        try:
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+        except OSError:  # e.g. a full disk: take back what was written, so the rows land whole or not at all
+            with contextlib.suppress(OSError):
+                os.ftruncate(f.fileno(), size)
+            raise
 
 
 def add_columns(path: str | os.PathLike, columns: list[str]) -> list[str]:
