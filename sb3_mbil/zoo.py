@@ -297,7 +297,16 @@ def _patch_experiment_manager(cls) -> None:
             return preprocess(self, hyperparams)
         data_spec = {k: hyperparams.pop(k) for k in DATA_KEYS if k in hyperparams}
         _check_keys(self.algo, ours[self.algo], hyperparams)
-        result = preprocess(self, hyperparams)
+        for key, value in hyperparams.items():  # rl_zoo3 reads "lin_<x>" as a linear schedule from float(x)
+            if isinstance(value, str) and value.startswith("lin_"):
+                try:
+                    float(value[len("lin_"):])
+                except ValueError:
+                    _exit(f"{key}: expected a number or 'lin_<initial value>', found {value!r}")
+        try:
+            result = preprocess(self, hyperparams)
+        except (ValueError, TypeError) as e:
+            _exit(f"hyperparameters: {e}")
         if isinstance(self.n_timesteps, bool) or not isinstance(self.n_timesteps, int) or self.n_timesteps < 1:
             _exit(f"n_timesteps: expected a number of gradient steps >= 1 (-n or n_timesteps), found {self.n_timesteps!r}")
         if self.eval_freq == ZOO_DEFAULT_EVAL_FREQ and self.n_timesteps <= ZOO_DEFAULT_EVAL_FREQ:
@@ -371,4 +380,7 @@ def _expert_data(env_id: str, spec: dict[str, Any], seed: int | None):
         env.close()
     if n > len(demos):
         _exit(f"n_expert_trajectories: expected at most the {len(demos)} trajectories of expert_pool {pool!r}, found {n}")
-    return demos.sample(n, seed=seed)
+    try:
+        return demos.sample(n, seed=seed)
+    except ValueError as e:
+        _exit(f"expert_seed: {e}")

@@ -12,11 +12,10 @@ algorithm, sb3_mbil.experts.SECOND_EXPERTS): --second-expert. The published base
 """
 
 import argparse
-import json
 import logging
 
 from sb3_mbil import ALGORITHMS
-from sb3_mbil.benchmark.cli import parse_seeds, positive_int, run
+from sb3_mbil.benchmark.cli import check_appendable, overrides_json, parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -36,7 +35,7 @@ def main(argv=None):
     p.add_argument("--protocol", default="full", choices=["full", "published", "published_next"],
                    help="full trajectories, every k-th step at each algorithm's published rate, or (a control) every "
                         "k-th step and its next step")
-    p.add_argument("--overrides", type=json.loads, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
+    p.add_argument("--overrides", type=overrides_json, default=None, help='JSON settings per algorithm replacing the tuned ones, e.g. \'{"mbil": {"alpha": 0.1}}\'')
     p.add_argument("--reuse", default=None, metavar="CSV",
                    help="first copy the rows of another grid's CSV whose runs these would repeat: the same key, data and "
                         "settings (AVRIL, ValueDICE and DSFN see whole trajectories under full and published)")
@@ -44,6 +43,7 @@ def main(argv=None):
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
     p.add_argument("--local", action="store_true", help="run without Ray, one run after the other")
     a = p.parse_args(argv)
+    check_appendable(a.csv, "--csv")
     if a.pool is not None and len(a.envs) != 1:
         raise ValueError(f"--pool: expected one env with a pool of your own, found --envs {' '.join(a.envs)}")
     if a.pool is not None and a.second_expert:

@@ -13,7 +13,7 @@ Figure 5 (alpha, beta) ablation. Evaluates every --eval-every gradient updates o
 
 import argparse
 
-from sb3_mbil.benchmark.cli import check_output, emit, fraction, parse_seeds, positive_int, run
+from sb3_mbil.benchmark.cli import check_appendable, check_output, emit, fraction, parse_seeds, positive_int, run
 
 
 def main(argv=None):
@@ -43,6 +43,7 @@ def main(argv=None):
     p.add_argument("--local", action="store_true", help="without Ray")
     p.add_argument("--overwrite", action="store_true", help="replace output files that are committed to git")
     a = p.parse_args(argv)
+    check_appendable(a.csv, "--csv")
     check_output(a.plot, a.overwrite, "--plot")
     check_output(a.markdown, a.overwrite, "--markdown")
     from sb3_mbil import load_demonstrations

@@ -64,3 +64,25 @@ def test_committed_files_are_replaced_only_with_overwrite(tmp_path):
                    "--reps", "50")
     assert fresh.returncode == 0, fresh.stderr[-2000:]
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_misspelt_settings_and_unwritable_results_are_one_line_before_any_training(tmp_path):
+    base = ["scripts/benchmark.py", "--algos", "bc", "--envs", "CartPole-v1", "--n-trajectories", "1", "--seeds", "0",
+            "--episodes", "2", "--local"]
+    cases = {
+        ("--csv", str(tmp_path / "r.csv"), "--overrides", '{"bc": {"learnig_rate": 0.001}}'):
+            "bc.learnig_rate: expected a setting of BC",
+        ("--csv", str(tmp_path / "r.csv"), "--overrides", "[1, 2]"): 'expected an object {"algo": {settings}}',
+        ("--csv", str(tmp_path / "r.csv"), "--overrides", '{"bc": {"policy_kwargs": {"net_arhc": [32]}}}'):
+            "policy_kwargs: expected keys among",
+        ("--csv", str(tmp_path / "a-file" / "r.csv")): "--csv: expected a results file that can be appended to",
+    }
+    (tmp_path / "a-file").write_text("not a folder")
+    for args, message in cases.items():
+        out = script(*base, *args)
+        assert out.returncode != 0 and "Traceback" not in out.stderr, (args, out.stderr[-800:])
+        assert message in out.stderr.strip().splitlines()[-1], (args, out.stderr[-800:])  # one line (after usage)
+    assert not (tmp_path / "r.csv").exists()  # nothing trained, nothing written
+    curves = script("scripts/run_curves.py", "--variants", '{"x": ["bc", {"learnig_rate": 1}]}', "--envs",
+                    "CartPole-v1", "--seeds", "0", "--updates", "10", "--csv", str(tmp_path / "c.csv"))
+    assert curves.returncode != 0 and "variants['x']: bc.learnig_rate: expected a setting of BC" in curves.stderr

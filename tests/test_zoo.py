@@ -169,6 +169,13 @@ def test_optimize_two_workers_share_one_study(tmp_path):
         (["--env", "CartPole-v1", "--hyperparams", "alpha:-1.0"], "sb3_mbil: alpha: expected a finite number >= 0, found -1.0"),
         (["--env", "CartPole-v1", "--hyperparams", "flow_hidden:64"], "sb3_mbil: flow_hidden: expected a list of 1 or more"),
         (["--env", "CartPole-v1", "-n", "-5"], "sb3_mbil: -n/--n-timesteps: expected a number of gradient steps >= 1, found -5"),
+        (["--env", "CartPole-v1", "--hyperparams", "policy_kwargs:'dict(net_arhc=[32])'"],
+         "sb3_mbil: policy_kwargs: expected keys among"),
+        (["--env", "CartPole-v1", "--hyperparams", "policy_kwargs:'dict(net_arch=dict(pi=[32]))'"],
+         "sb3_mbil: policy_kwargs.net_arch: expected a list of layer sizes (one network"),
+        (["--env", "CartPole-v1", "--hyperparams", "expert_seed:-1"], "sb3_mbil: expert_seed: seed: expected None or an"),
+        (["--env", "CartPole-v1", "--hyperparams", "learning_rate:'lin_abc'"],
+         "sb3_mbil: learning_rate: expected a number or 'lin_<initial value>', found 'lin_abc'"),
     ],
 )
 def test_bad_input_stops_with_a_clear_message(tmp_path, extra, message):

@@ -54,6 +54,30 @@ def fraction(text: str) -> float:
     return value
 
 
+def overrides_json(text: str) -> dict[str, dict[str, Any]]:
+    """``--overrides``: a JSON object of settings per algorithm, ``{"mbil": {"alpha": 0.1}}``; each checked against
+    the algorithm's constructor (one line naming a misspelt key)."""
+    import json
+
+    from sb3_mbil import ALGORITHMS
+    from sb3_mbil.benchmark.grid import check_overrides
+
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise argparse.ArgumentTypeError(f"expected JSON, found {text!r} ({e.msg})") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f'expected an object {{"algo": {{settings}}}}, found {text!r}')
+    for algo, settings in value.items():
+        if algo not in ALGORITHMS:
+            raise argparse.ArgumentTypeError(f"expected algorithms among {sorted(ALGORITHMS)}, found {algo!r}")
+        try:
+            check_overrides(algo, settings)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return value
+
+
 def parse_seeds(text: str) -> list[int]:
     """``"0-9"``, ``"0,3,5"`` or ``"0-4,10"`` -> list of seeds (each >= 0, ranges increasing)."""
     out: list[int] = []
@@ -92,6 +116,36 @@ def check_output(path: str | os.PathLike | None, overwrite: bool, option: str) -
     """Refuse to replace a committed file unless ``--overwrite`` was given (one-line error naming the option)."""
     if path is not None and not overwrite and is_committed(path):
         raise ValueError(f"{option}: {path} is a committed file; pass --overwrite to replace it")
+
+
+def check_appendable(path: str | os.PathLike, option: str) -> None:
+    """Refuse, before any training, a results file that cannot be appended to (a read-only file or file system, a
+    folder that cannot be created): one line naming the option, instead of a traceback after the runs."""
+    path = Path(path)
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if path.exists():
+        ok = path.is_file() and os.access(path, os.W_OK) and os.access(path.parent, os.W_OK)
+    else:
+        ok = folder.is_dir() and os.access(folder, os.W_OK)
+    if ok and path.exists():
+        try:  # a read-only mount passes os.access for root: try to open it for appending
+            with open(path, "a"):
+                pass
+        except OSError:
+            ok = False
+    elif ok:
+        try:
+            import tempfile
+
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError:
+            ok = False
+    if not ok:
+        raise ValueError(f"{option}: expected a results file that can be appended to, found {path} not writable "
+                         "(a read-only file, folder or file system)")
 
 
 def emit(text: str, markdown: str | os.PathLike | None = None) -> None:

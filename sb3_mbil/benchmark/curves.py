@@ -19,7 +19,7 @@ from gymnasium import spaces
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_mbil import ALGORITHMS
-from sb3_mbil.benchmark.grid import git_commit, tuned_settings
+from sb3_mbil.benchmark.grid import check_overrides, git_commit, tuned_settings
 from sb3_mbil.benchmark.report import paired_interval
 from sb3_mbil.benchmark.results import append_rows, finished_keys, settings_by_cell
 
@@ -56,6 +56,10 @@ def parse_variants(text: str) -> dict[str, tuple[str, dict[str, Any]]]:
     for name, spec in raw.items():
         if not (isinstance(spec, list) and len(spec) == 2 and spec[0] in ALGORITHMS and isinstance(spec[1], dict)):
             raise ValueError(f"variants[{name!r}]: expected [algo, {{settings}}] with algo in {sorted(ALGORITHMS)}, found {spec!r}")
+        try:
+            check_overrides(spec[0], spec[1])
+        except ValueError as e:
+            raise ValueError(f"variants[{name!r}]: {e}") from None
         out[str(name)] = (spec[0], dict(spec[1]))
     return out
 

@@ -78,6 +78,7 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
         raise ValueError(f"env: expected an entry for {env} in {hyperparams_file(algo)}, found entries {sorted(table)}")
     entry = table.get(env, {"n_timesteps": DEFAULT_STEPS})
     settings = {k: v for k, v in entry.items() if k not in DATA_KEYS and k != "policy"}
+    check_overrides(algo, overrides)
     settings.update(overrides or {})
     if isinstance(settings.get("policy_kwargs"), str):
         # as rl_zoo3 writes it ("dict(net_arch=[256, 256], optimizer_class=th.optim.AdamW)"), parsed, never run
@@ -99,6 +100,25 @@ def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None,
                              f"{settings['learning_rate']!r}")
         settings["learning_rate"] = linear_schedule(initial)
     return settings
+
+
+def check_overrides(algo: str, overrides: Any) -> None:
+    """Settings given on a command line for ``algo``: a dict whose keys are its constructor's settings (or
+    ``n_timesteps``); a misspelt or unknown key is a ``ValueError`` naming it and the choices."""
+    import inspect
+
+    from sb3_mbil import ALGORITHMS
+
+    if overrides is None:
+        return
+    if not isinstance(overrides, dict):
+        raise ValueError(f"{algo}: expected an object of settings, found {overrides!r}")
+    known = {p for p in inspect.signature(ALGORITHMS[algo].__init__).parameters
+             if p not in ("self", "policy", "env", "expert_data", "_init_setup_model")} | {"n_timesteps"}
+    unknown = sorted(k for k in overrides if k not in known)
+    if unknown:
+        raise ValueError(f"{algo}.{unknown[0]}: expected a setting of {ALGORITHMS[algo].__name__} "
+                         f"({', '.join(sorted(known))}), found an unknown key")
 
 
 def settings_column(algo: str, env: str, overrides: dict[str, dict[str, Any]] | None = None, pool: str | None = None,
