@@ -30,6 +30,8 @@ class Case:
     run: Callable[[], object]
     outcome: str = ""
     message: str = ""
+    #: the case is a behaviour, not a bad input: ``run`` returns True when the package behaves correctly
+    behaviour: bool = False
 
 
 def native_env(algo: type) -> str:
@@ -184,6 +186,9 @@ def cases(workdir: Path) -> list[Case]:
         Case("results CSV", "resume on a cut last line (must drop it and redo the run)", "resumed",
              lambda: _resumes(finished_keys(grid_csv(5), KEY_COLUMNS))),
     ]
+    from sb3_mbil.robustness_cases import round_three
+
+    out += round_three(workdir, demo, fast, saved)
     return out
 
 
@@ -197,7 +202,6 @@ def _resumes(keys) -> None:
 def run_cases() -> list[Case]:
     import warnings
 
-    warnings.simplefilter("ignore")
     with tempfile.TemporaryDirectory() as d:
         all_cases = cases(Path(d))
         cwd = os.getcwd()
@@ -205,14 +209,23 @@ def run_cases() -> list[Case]:
         try:
             for c in all_cases:
                 try:
-                    c.run()
+                    with warnings.catch_warnings(record=True) as caught:
+                        warnings.simplefilter("always")
+                        result = c.run()
                 except CLEAN_ERRORS as e:
                     c.message = str(e).splitlines()[0][:200]
                     c.outcome = "clean" if c.field.lower() in str(e).lower() else "unclear"
                 except Exception as e:  # noqa: BLE001 - classifying every failure is the point
                     c.message, c.outcome = f"{type(e).__name__}: {str(e).splitlines()[0][:180] if str(e) else ''}", "unclear"
                 else:
-                    c.outcome = "silent"
+                    named = [w for w in caught if c.field.lower() in str(w.message).lower()]
+                    if c.behaviour:
+                        c.outcome = "clean" if result is True else "silent"
+                        c.message = "behaves correctly" if result is True else f"wrong result: {result!r}"[:200]
+                    elif named:
+                        c.outcome, c.message = "clean", f"warning: {str(named[0].message).splitlines()[0][:190]}"
+                    else:
+                        c.outcome = "silent"
         finally:
             os.chdir(cwd)
     return all_cases
