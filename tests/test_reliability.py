@@ -262,9 +262,11 @@ def test_values_of_the_wrong_type_are_refused_or_kept_exactly(demo, tmp_path):
     for n in (True, np.bool_(True)):
         with pytest.raises(ValueError, match=r"n: expected an integer in \[1, 1000\]"):
             pool.sample(n)
-    for seed in (-1, True, 1.5, "5"):
+    for seed in (-1, True, 1.5, "5", 2**70):
         with pytest.raises(ValueError, match="seed: expected None or an integer >= 0"):
             pool.sample(2, seed=seed)
+        with pytest.raises(ValueError, match="seed: expected"):
+            pool.sample(2, seed=0).subsample(2, seed=seed)
     drawn = pool.sample(np.int64(2), seed=np.int64(5))
     assert drawn.metadata["sampled"]["indices"] == pool.sample(2, seed=5).metadata["sampled"]["indices"]
     drawn.metadata["user_value"] = np.float32(0.5)

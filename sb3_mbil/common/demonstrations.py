@@ -176,8 +176,8 @@ class Demonstrations:
         if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1 or n > len(self):
             raise ValueError(f"n: expected an integer in [1, {len(self)}], found {n!r}")
         if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer))
-                                 or seed < 0):
-            raise ValueError(f"seed: expected None or an integer >= 0, found {seed!r}")
+                                 or not 0 <= seed < 2**64):
+            raise ValueError(f"seed: expected None or an integer >= 0 and < 2**64, found {seed!r}")
         seed = None if seed is None else int(seed)
         rng = np.random.default_rng(seed)
         idx = rng.choice(len(self), size=int(n), replace=False)
@@ -202,6 +202,7 @@ class Demonstrations:
         from sb3_mbil.common.validation import check_int
 
         every = check_int("every", every, low=1)
+        seed = check_int("seed", seed, low=0)
         if offset == "random":
             offsets = np.random.default_rng(seed).integers(0, every, size=len(self.trajectories)).tolist()
         else:
