@@ -202,7 +202,7 @@ class Demonstrations:
         from sb3_mbil.common.validation import check_int
 
         every = check_int("every", every, low=1)
-        seed = check_int("seed", seed, low=0)
+        seed = check_int("seed", seed, low=0, high=2**64 - 1)
         if offset == "random":
             offsets = np.random.default_rng(seed).integers(0, every, size=len(self.trajectories)).tolist()
         else:
