@@ -41,6 +41,11 @@ from sb3_mbil.common.validation import (CheckedSchedule, check_int, check_learni
 SelfOffline = TypeVar("SelfOffline", bound="OfflineAlgorithm")
 
 
+#: gradient steps between the checks that the recorded losses and the parameters are finite (each check waits for
+#: the device once, instead of once per step); a non-finite value names its term and the step it first appeared at
+FINITE_CHECK_EVERY = 100
+
+
 def warn_if_no_device(device: th.device | str) -> None:
     """SB3 falls back to the CPU without a word when CUDA is asked for and absent: say so."""
     if str(device).startswith("cuda") and not th.cuda.is_available():
@@ -342,7 +347,7 @@ class OfflineAlgorithm(BaseAlgorithm):
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
         return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats", "_parameters",
-                "_data_in_use"]
+                "_data_in_use", "_window"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
         """Give (or replace) the expert data, e.g. after ``load`` to continue learning. Inside ``learn`` only a
@@ -525,32 +530,55 @@ class OfflineAlgorithm(BaseAlgorithm):
         self._prepare_training()
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
+        self._window: dict[str, list[tuple[int, th.Tensor]]] = {}
         self._parameters: list[tuple[str, th.nn.Parameter]] | None = None
         while self.num_timesteps < total_timesteps and not self.training_complete():
             self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
             self._update_learning_rate(self._optimizers())
             self._train_step()
             self.num_timesteps += 1
-            self._check_parameters()
+            if self.num_timesteps % FINITE_CHECK_EVERY == 0:
+                self._check_finite()
             self._n_updates += 1
             callback.update_locals(locals())
             if not callback.on_step():
                 break
             if log_interval > 0 and self.num_timesteps % log_interval == 0:
                 self.dump_logs()
+        self._check_finite()
         self.policy.set_training_mode(False)
         callback.on_training_end()
         return self
 
     def _record(self, key: str, value: th.Tensor) -> None:
-        """Accumulate a training statistic (its mean since the last dump is logged); a non-finite one stops training."""
-        value = value.detach()
-        if not bool(th.isfinite(value).all()):
+        """Keep a training statistic (its mean since the last dump is logged). Nothing waits for the device here:
+        every ``FINITE_CHECK_EVERY`` steps :meth:`_check_finite` checks the kept values at once, and a non-finite
+        one stops training naming its term and the step it appeared at."""
+        self._window.setdefault(key, []).append((self.num_timesteps + 1, value.detach()))
+
+    def _check_finite(self) -> None:
+        """Stop at the first non-finite recorded value (its term and gradient step named), then at a non-finite
+        parameter; fold the checked values into the logged means."""
+        window, self._window = getattr(self, "_window", {}), {}
+        if not hasattr(self, "_train_stats"):
+            self._train_stats = {}
+        first = None
+        for key, items in window.items():
+            values = th.stack([v.reshape(()) for _, v in items])
+            finite = th.isfinite(values)
+            if not bool(finite.all()):
+                i = int((~finite).nonzero()[0])
+                if first is None or items[i][0] < first[0]:
+                    first = (items[i][0], key, float(values[i]))
+            total, count = self._train_stats.get(key, (0.0, 0))
+            self._train_stats[key] = (total + values.sum(), count + len(values))
+        if first is not None:
+            step, key, value = first
             raise FloatingPointError(
-                f"{type(self).__name__}: {key} is {float(value)} at gradient step {self.num_timesteps + 1}: training stopped "
+                f"{type(self).__name__}: {key} is {value} at gradient step {step}: training stopped "
                 "(lower the learning rate, or check the scale of the expert data)")
-        total, count = self._train_stats.get(key, (0.0, 0))
-        self._train_stats[key] = (total + value, count + 1)
+        if hasattr(self, "_parameters"):
+            self._check_parameters()
 
     def _check_parameters(self) -> None:
         """Stop at the first non-finite parameter of any saved module (a loss can stay finite while a step is not);
@@ -566,6 +594,7 @@ class OfflineAlgorithm(BaseAlgorithm):
                 "stopped (lower the learning rate, or check the scale of the expert data)")
 
     def dump_logs(self) -> None:
+        self._check_finite()
         for key, (total, count) in getattr(self, "_train_stats", {}).items():
             self.logger.record(key, float(total) / count)
         self._train_stats = {}
