@@ -166,11 +166,12 @@ def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int)
 
 
 def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
-        n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None) -> None:
+        n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None,
+        tuned_algos: list[str] | None = None) -> None:
     """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run.
 
     ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
-    tuning, or ``tuning_pool``'s when given).
+    tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants.
     """
     from sb3_mbil.benchmark.results import read_result_rows
 
@@ -185,6 +186,8 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         for pool in pools:
             for n in n_trajectories:
                 best = best_variants(tuning, env_id, tuning_pool or pool, n) if tuned_from else {}
+                if tuned_algos is not None:
+                    best = {algo: name for algo, name in best.items() if algo in tuned_algos}
                 if tuned_from and not best:
                     raise ValueError(f"tuned_from: expected tuning rows of {env_id}, {tuning_pool or pool}, N={n} in "
                                      f"{tuned_from}, found none")
@@ -216,10 +219,11 @@ def main(argv=None) -> None:
     parser.add_argument("--csv", required=True)
     parser.add_argument("--tuned-from", default=None, help="tuning CSV: also run each algorithm's best variant")
     parser.add_argument("--tuning-pool", default=None, help="with --tuned-from: the pool whose tuning picks them")
+    parser.add_argument("--tuned-algos", nargs="+", default=None, help="with --tuned-from: only these algorithms")
     args = parser.parse_args(argv)
     variants = sorted(variants_for(args.env)) if args.variants == ["all"] else args.variants
     run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
-        args.tuning_pool)
+        args.tuning_pool, args.tuned_algos)
 
 
 if __name__ == "__main__":
