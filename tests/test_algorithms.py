@@ -173,8 +173,23 @@ def test_callback_can_stop_training(algo, data):
 
 
 @pytest.mark.parametrize("algo", ALGOS)
-def test_progress_bar(algo, data):
-    make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(10, progress_bar=True)
+def test_progress_bar(algo, data, capsys):
+    """SB3's ProgressBarCallback counts our gradient steps: it reaches the total and is closed."""
+    from stable_baselines3.common.callbacks import ProgressBarCallback
+
+    seen = []
+    real = ProgressBarCallback._on_training_end
+
+    def closing(self):
+        seen.append(self.pbar.n)
+        real(self)
+
+    ProgressBarCallback._on_training_end = closing
+    try:
+        model = make(algo, ENV_OF[algo], data[ENV_OF[algo]]).learn(10, progress_bar=True)
+    finally:
+        ProgressBarCallback._on_training_end = real
+    assert model.num_timesteps == 10 and seen == [10]
 
 
 @pytest.mark.parametrize("algo", ALGOS)
@@ -209,8 +224,18 @@ def test_alpha_beta_variants(data):
 
 
 def test_box_bc_losses(data):
+    """MSE trains the mean only (the log-std head gets no gradient); the Gaussian NLL fits a state-dependent std too;
+    both lower their own loss on the expert pairs."""
     for kind in ("mse", "nll"):
-        make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss=kind, weight_decay=1e-3).learn(10)
+        model = make(BC, "Pendulum-v1", data["Pendulum-v1"], bc_loss=kind, weight_decay=0.0)
+        model.learn(1)
+        head = model.policy.log_std_head.weight.detach().clone()
+        before = model.validation_losses(data["Pendulum-v1"])["bc_loss"]
+        model.learn(300, reset_num_timesteps=False)
+        after = model.validation_losses(data["Pendulum-v1"])["bc_loss"]
+        assert after < before, (kind, before, after)
+        moved = not th.equal(model.policy.log_std_head.weight.detach(), head)
+        assert moved == (kind == "nll"), kind
 
 
 @pytest.mark.parametrize("algo", [BC, ALGORITHMS["mbil_c"]], ids=["bc", "mbil_c"])
