@@ -1,8 +1,9 @@
 """Converters between :class:`~sb3_mbil.Demonstrations` and the ``imitation`` library's trajectory types.
 
-``imitation`` pins old gymnasium and SB3 releases, so it is never a dependency of ours: install it
-(``pip install "sb3_mbil[imitation]"``) in an environment where it fits. ``from_imitation`` needs
-only objects with imitation's fields (``obs``, ``acts``, ``terminal`` and, optionally, ``rews``).
+``imitation`` pins old gymnasium and SB3 releases, so it cannot be installed beside this package and is no extra of
+ours: the converters are duck-typed. ``from_imitation`` needs only objects with imitation's fields (``obs``,
+``acts``, ``terminal`` and, optionally, ``rews``); ``to_imitation`` builds imitation's ``Trajectory`` where imitation
+is importable, or any class with those fields passed as ``trajectory_class``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,9 @@ def to_imitation(demos: Demonstrations, trajectory_class: type | None = None) ->
         try:
             from imitation.data.types import Trajectory as trajectory_class
         except ImportError as e:
-            raise ImportError('to_imitation needs the imitation library: pip install "sb3_mbil[imitation]"') from e
+            raise ImportError("to_imitation needs the imitation library's Trajectory, which cannot be installed beside "
+                              "this package (it pins an older gymnasium): pass trajectory_class, a class with its "
+                              "fields obs, acts, infos, terminal") from e
     out = []
     for i, t in enumerate(demos):
         if not t.has_final_observation:
