@@ -13,7 +13,7 @@ import torch as th
 from synthetic import DiscreteActionMDP, LinearGaussianMDP
 
 from sb3_mbil import BC, MBILC, as_demonstrations, load_demonstrations
-from sb3_mbil.mbil_c.mbil_c import balance_kl
+from sb3_mbil.mbil_c.balance import balance_kl
 
 T_TOLERANCE = 0.2  # nats per tuple
 P_TOLERANCE = 0.2
@@ -64,7 +64,7 @@ def test_model_states_are_draws_of_t(fitted):
     mdp, model, _ = fitted
     s, a, s2, _ = model.expert_tuples()
     k = model.n_model_states
-    states = model.balance_targets()["states"].numpy().astype(np.float64)
+    states = model.balance_targets().states.numpy().astype(np.float64)
     s64 = s.numpy().astype(np.float64).repeat(k, 0)
     actions = a.numpy().repeat(k, 0)
     true_mean = s64 @ mdp.A.T + (actions.reshape(-1, 1) @ mdp.B.T if isinstance(mdp, LinearGaussianMDP)
@@ -78,12 +78,12 @@ def test_model_states_are_draws_of_t(fitted):
     # kappa scales the spread around the same means
     model.model_state_scale = 0.0
     model._cache = None
-    still = model.balance_targets()["states"].numpy()
+    still = model.balance_targets().states.numpy()
     assert np.abs(still - states).max() > 0.1
     assert np.allclose(still[::k], still[1::k]) and np.abs(still - true_mean).std(0).max() < 0.1
     model.model_state_scale = 1.0
     model._cache = None
-    np.testing.assert_array_equal(model.balance_targets()["states"].numpy(), states.astype(np.float32))  # seeded
+    np.testing.assert_array_equal(model.balance_targets().states.numpy(), states.astype(np.float32))  # seeded
 
 
 def test_balance_only_training_recovers_the_expert_policy(fitted):
@@ -107,13 +107,13 @@ def test_data_targets_belong_to_each_pairs_predecessor():
     cache = model.balance_targets()
     pairs = model.expert_pairs()
     first = np.r_[0, np.cumsum(demos.episode_lengths)[:-1]]
-    has = cache["has_target"].numpy()
+    has = cache.has_target.numpy()
     assert not has[first].any() and has.sum() == len(has) - len(first)
     p = int(first[1]) + 5  # the sixth step of the second trajectory
     expected = model.balance_model.next_action_distribution(pairs.observations[p - 1 : p], pairs.actions[p - 1 : p],
                                                             pairs.observations[p : p + 1])[0]
-    th.testing.assert_close(cache["data"][0][p : p + 1], expected)
-    assert "transition" not in model.model_report and "states" not in cache  # T is not fitted when unused
+    th.testing.assert_close(cache.data[0][p : p + 1], expected)
+    assert "transition" not in model.model_report and cache.states is None  # T is not fitted when unused
 
 
 def test_without_balance_terms_it_is_bc():
@@ -130,13 +130,13 @@ def test_anchored_targets_sit_on_the_observed_actions(pendulum_data):
                   model_max_steps=40, seed=0)
     model.learn(0)
     cache, pairs, tup = model.balance_targets(), model.expert_pairs(), model.expert_tuples()
-    has = cache["has_target"]
-    th.testing.assert_close(cache["data"][0][has], pairs.actions[has])
+    has = cache.has_target
+    th.testing.assert_close(cache.data[0][has], pairs.actions[has])
     # at kappa = 0 the model state is T's mean: the target is a' plus P's change from s' to that state
     with th.no_grad():
         p_data = model.balance_model.next_action_distribution(tup.observations, tup.actions, tup.next_observations)[0]
-        p_model = model.balance_model.next_action_distribution(tup.observations, tup.actions, cache["states"][::4])[0]
-    th.testing.assert_close(cache["model"][0][::4], tup.next_actions + p_model - p_data)
+        p_model = model.balance_model.next_action_distribution(tup.observations, tup.actions, cache.states[::4])[0]
+    th.testing.assert_close(cache.model[0][::4], tup.next_actions + p_model - p_data)
     with pytest.raises(ValueError, match="anchor_to_data: expected False for Discrete actions"):
         MBILC("MlpPolicy", "CartPole-v1", anchor_to_data=True)
     with pytest.raises(ValueError, match="divergence: expected 'kl' or 'auto' for Discrete actions, found 'w2'"):
@@ -154,10 +154,10 @@ def test_corrective_labels_lead_back_to_the_expert_next_state(residual):
     model.learn(0)
     cache, (s, a, s_next, _) = model.balance_targets(), model.expert_tuples()
     report = model.model_report["corrective_labels"]
-    assert report["kept"] > 0.5 * report["tried"] and len(cache["states"]) == report["kept"]
-    x, actions = cache["states"].numpy().astype(np.float64), cache["model_actions"].numpy().astype(np.float64)
+    assert report["kept"] > 0.5 * report["tried"] and len(cache.states) == report["kept"]
+    x, actions = cache.states.numpy().astype(np.float64), cache.model_actions.numpy().astype(np.float64)
     true_next = x @ mdp.A.T + actions @ mdp.B.T  # the mean of the true T
-    tuples = cache["model_tuples"].numpy()  # the expert tuple of each kept label
+    tuples = cache.model_tuples.numpy()  # the expert tuple of each kept label
     expert_next = s_next.numpy()[tuples]
     rms = np.sqrt(((true_next - expert_next) ** 2).mean(1)) / s.numpy().std(0).mean()
     assert np.median(rms) < 0.1
@@ -189,14 +189,14 @@ def test_discrete_objective_is_one_cross_entropy_with_the_same_gradient():
         return [p.grad.clone() for p in model.policy.parameters() if p.grad is not None]
 
     logits = model.policy.heads(pairs.observations[i])[0]
-    fused = grads(th.nn.functional.cross_entropy(logits, cache["soft_labels"][i]))
+    fused = grads(th.nn.functional.cross_entropy(logits, cache.soft_labels[i]))
     log_pi = th.log_softmax(model.policy.heads(pairs.observations[i])[0], -1)
-    kl = balance_kl(model.policy, (cache["data"][0][i],), (model.policy.heads(pairs.observations[i])[0],))
-    kl = th.where(cache["has_target"][i], kl, th.zeros_like(kl))  # rows without a predecessor carry no target
-    explicit = 1.3 * -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean() + 0.7 * (kl * cache["weight"][i]).mean()
+    kl = balance_kl(model.policy, (cache.data[0][i],), (model.policy.heads(pairs.observations[i])[0],))
+    kl = th.where(cache.has_target[i], kl, th.zeros_like(kl))  # rows without a predecessor carry no target
+    explicit = 1.3 * -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean() + 0.7 * (kl * cache.weight[i]).mean()
     for a, b in zip(fused, grads(explicit)):
         th.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
     model.alpha = 0.0
     model.learn(1, reset_num_timesteps=False)
-    onehot = th.nn.functional.one_hot(pairs.actions, cache["soft_labels"].shape[1]).float()
-    th.testing.assert_close(model.balance_targets()["soft_labels"], 1.3 * onehot)
+    onehot = th.nn.functional.one_hot(pairs.actions, cache.soft_labels.shape[1]).float()
+    th.testing.assert_close(model.balance_targets().soft_labels, 1.3 * onehot)

@@ -125,10 +125,10 @@ def test_mbil_c_balances_at_the_true_successors_of_subsampled_steps():
     model = ALGORITHMS["mbil_c"]("MlpPolicy", "CartPole-v1", expert_data=demos, seed=0)
     model.learn(5)
     cache = model.balance_targets()
-    assert not bool(cache["has_target"].any())  # no kept state is another kept step's successor
+    assert not bool(cache.has_target.any())  # no kept state is another kept step's successor
     tuples = model.expert_tuples()
-    assert len(cache["orphan_states"]) == len(tuples.observations)
-    th.testing.assert_close(cache["orphan_states"], tuples.next_observations)
+    assert len(cache.orphan_states) == len(tuples.observations)
+    th.testing.assert_close(cache.orphan_states, tuples.next_observations)
 
 
 def test_with_next_keeps_each_kept_step_and_its_next_step():

@@ -51,10 +51,10 @@ def transition_diagnostics(env: str, seed: int, settings: dict[str, Any], action
            "heldout_ll": round(report["transition"]["heldout_ll"], 2), "train_ll": round(report["transition"]["train_ll"], 2),
            "step": round(_rms(s_next - s, scale), 4), "error": round(_rms(mean - s_next, scale), 4),
            "action_effect": round(_rms(moved - mean, scale), 4)}
-    if "model_tuples" in cache:
+    if cache.model_tuples is not None:
         kept = model.model_report["corrective_labels"]
         out["labels_kept"] = f"{kept['kept']} of {kept['tried']}"
-        out["label_shift"] = round(_rms(cache["states"] - s[cache["model_tuples"]], scale), 4) if kept["kept"] else ""
+        out["label_shift"] = round(_rms(cache.states - s[cache.model_tuples], scale), 4) if kept["kept"] else ""
     return out
 
 

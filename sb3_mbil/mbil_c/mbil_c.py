@@ -50,40 +50,8 @@ from sb3_mbil.common.flows import fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.mbil_c.balance import DIVERGENCES, BalanceTargets, Minibatch, balance_divergence
 from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
-
-DIVERGENCES = ("auto", "kl", "w2")
-
-
-def balance_w2(target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
-    """Squared 2-Wasserstein distance between diagonal Gaussians P(. | s, a, s') and pi(. | s') per row:
-    ``|mean_P - mean_pi|^2 + |std_P - std_pi|^2``. Zero exactly where KL is, but in the action's units, like
-    the MSE behaviour-cloning term (KL weighs the mean gap by 1 / std_pi^2, which a near-deterministic expert
-    makes huge)."""
-    mean_p, log_std_p = target
-    mean_pi, log_std_pi = heads
-    return ((mean_p - mean_pi).pow(2) + (log_std_p.exp() - log_std_pi.exp()).pow(2)).sum(dim=1)
-
-
-def balance_divergence(kind: str, policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
-    """D( P(. | s, a, s') || pi(. | s') ) per row: ``"kl"`` or ``"w2"`` (Box only)."""
-    return balance_kl(policy, target, heads) if kind == "kl" else balance_w2(target, heads)
-
-
-def balance_kl(policy: ImitationPolicy, target: Sequence[th.Tensor], heads: Sequence[th.Tensor]) -> th.Tensor:
-    """KL( P(. | s, a, s') || pi(. | s') ) per row, exact: categorical against categorical (Discrete), diagonal
-    Gaussian against diagonal Gaussian in raw action units (Box). ``target`` is P's ``(log_probs,)`` or
-    ``(mean, log_std)``, ``heads`` the policy's at s'."""
-    if policy.discrete:
-        (log_p,) = target
-        log_pi = th.log_softmax(heads[0], dim=-1)
-        return (log_p.exp() * (log_p - log_pi)).sum(dim=1)
-    mean_p, log_std_p = target
-    mean_pi, log_std_pi = heads
-    ratio = th.exp(2.0 * (log_std_p - log_std_pi))
-    gap = (mean_p - mean_pi) * th.exp(-log_std_pi)
-    return (log_std_pi - log_std_p + 0.5 * (ratio + gap.pow(2) - 1.0)).sum(dim=1)
-
 
 class MBILC(OfflineAlgorithm):
     """MBIL-C: Markov balance over every next action, at the data's and the dynamics model's next states.
@@ -261,7 +229,7 @@ class MBILC(OfflineAlgorithm):
 
     def _on_new_data(self) -> None:
         super()._on_new_data()
-        self._cache: dict[str, th.Tensor] | None = None  # P's conditionals and T's draws, once the models are fitted
+        self._cache: BalanceTargets | None = None  # P's conditionals and T's draws, once the models are fitted
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "_cache"]
@@ -325,15 +293,13 @@ class MBILC(OfflineAlgorithm):
                 th.as_tensor(np.asarray(orphans, dtype=np.int64), device=self.device))
 
     @th.no_grad()
-    def balance_targets(self) -> dict[str, th.Tensor]:
-        """P_eta's conditionals the policy is fitted to, computed once per fitted models and data.
-
-        ``data``: P(. | s, a, s') of every expert pair (s', a') whose predecessor (s, a) is known (``has_target``);
-        ``states`` / ``model``: the ``n_model_states`` draws s~' ~ T^kappa(. | s, a) per tuple and P(. | s, a, s~').
-        """
+    def balance_targets(self) -> BalanceTargets:
+        """P_eta's conditionals the policy is fitted to (:class:`~sb3_mbil.mbil_c.balance.BalanceTargets`),
+        computed once per fitted models and data: at every expert pair (s', a') whose predecessor (s, a) is known,
+        at the orphan tuples, and at the ``n_model_states`` draws s~' ~ T^kappa(. | s, a) per tuple."""
         if self._cache is not None:
-            if "soft_labels" in self._cache and self._cache["label_weights"] != (self.alpha, self.beta):
-                self._cache.update(self._soft_labels(self._cache))  # alpha or beta changed since
+            if self._cache.soft_labels is not None and self._cache.label_weights != (self.alpha, self.beta):
+                self._cache.soft_labels, self._cache.label_weights = self._soft_labels(self._cache)  # alpha or beta changed
             return self._cache
         if not bool(self.balance_model.fitted):
             raise RuntimeError("the models are not fitted yet: call fit_models() or learn()")
@@ -346,52 +312,52 @@ class MBILC(OfflineAlgorithm):
         # the balance term is the mean over all tuples: those whose s' is a pair's state (in the BC minibatch, weight
         # 1 on pairs with a predecessor) and the orphans (their own minibatch), in proportion to their numbers
         n_inner, n_orphan = int(has.sum()), len(orphans)
-        cache: dict[str, Any] = {"has_target": has, "weight": has.float() / has.float().mean().clamp(min=1e-12),
-                                 "inner_share": n_inner / max(n_inner + n_orphan, 1)}
+        at_data = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
+                                                                                         d[prev[has]]) for d in data)
+        targets = BalanceTargets(has_target=has, weight=has.float() / has.float().mean().clamp(min=1e-12),
+                                 inner_share=n_inner / max(n_inner + n_orphan, 1), data=at_data)
         if n_orphan:
             a_next_all = self.expert_tuples().next_actions
-            cache["orphan_states"] = s_next[orphans]
-            cache["orphan_target"] = tuple(d[orphans] for d in data)
+            targets.orphan_states = s_next[orphans]
+            targets.orphan_target = tuple(d[orphans] for d in data)
             if self.anchor_to_data:
-                cache["orphan_target"] = (a_next_all[orphans].view(n_orphan, -1), cache["orphan_target"][1])
-        cache["data"] = tuple(th.zeros((n_pairs, *d.shape[1:]), device=self.device).index_copy(0, th.nonzero(has).view(-1),
-                                                                                               d[prev[has]]) for d in data)
+                targets.orphan_target = (a_next_all[orphans].view(n_orphan, -1), targets.orphan_target[1])
         if model.discrete:  # KL(P || pi) = sum P log P - sum P log pi: the first sum once per pair
-            probs = cache["data"][0].exp() * has.float().unsqueeze(1)
-            cache["probs"], cache["neg_entropy"] = probs, (probs * cache["data"][0]).sum(1)
-            cache.update(self._soft_labels(cache))
+            probs = targets.data[0].exp() * has.float().unsqueeze(1)
+            targets.probs, targets.neg_entropy = probs, (probs * targets.data[0]).sum(1)
+            targets.soft_labels, targets.label_weights = self._soft_labels(targets)
         if self.anchor_to_data:  # Box: P's mean at the data moved onto the observed a' (its std kept)
             a_next = self.expert_tuples().next_actions
-            cache["data"] = (cache["data"][0].index_copy(0, th.nonzero(has).view(-1), a_next[prev[has]].view(-1, data[0].shape[1])),
-                             cache["data"][1])
+            targets.data = (targets.data[0].index_copy(0, th.nonzero(has).view(-1),
+                                                       a_next[prev[has]].view(-1, data[0].shape[1])), targets.data[1])
         if self.alpha_model > 0 and self.model_labels == "corrective":
-            cache.update(self._corrective_labels())
+            targets.states, targets.model_actions, targets.model_tuples = self._corrective_labels()
         elif self.alpha_model > 0:
             generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
             k = self.n_model_states
             states = model.sample_next_states(s, a, k, self.model_state_scale, generator)
-            cache["states"] = states
+            targets.states = states
             target = model.next_action_distribution(s.repeat_interleave(k, 0), a.repeat_interleave(k, 0), states)
             if self.anchor_to_data:  # a' + (mean_P(s, a, s~') - mean_P(s, a, s')): P's change, not its level
                 a_next = self.expert_tuples().next_actions.view(len(s), -1)
                 shift = (a_next - data[0]).repeat_interleave(k, 0)
                 target = (target[0] + shift, target[1])
-            cache["model"] = target
-        self._cache = cache
-        return cache
+            targets.model = target
+        self._cache = targets
+        return targets
 
-    def _soft_labels(self, cache: dict[str, Any]) -> dict[str, Any]:
+    def _soft_labels(self, targets: BalanceTargets) -> tuple[th.Tensor, tuple[float, float]]:
         """(Discrete) beta * CE(onehot(a), pi) + alpha * w * KL(P || pi) = CE(Y, pi) + const with the soft label
         Y = beta * onehot(a) + alpha * w * P per expert pair: the objective at the data as one cross-entropy."""
         pairs = self.expert_pairs()
         onehot = th.nn.functional.one_hot(pairs.actions, self.balance_model.n_actions).float()
-        return {"soft_labels": self.beta * onehot + self.alpha * cache["weight"].unsqueeze(1) * cache["probs"],
-                "label_weights": (self.alpha, self.beta)}
+        return self.beta * onehot + self.alpha * targets.weight.unsqueeze(1) * targets.probs, (self.alpha, self.beta)
 
     @th.no_grad()
-    def _corrective_labels(self) -> dict[str, Any]:
+    def _corrective_labels(self) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
         """CCIL-style labels (``model_labels="corrective"``): states s~ near the expert's from which T's mean takes a
-        perturbed action a~ to the expert's next state s', kept where T lands within the tolerance."""
+        perturbed action a~ to the expert's next state s', kept where T lands within the tolerance. Returns the kept
+        states, their actions and the tuple each came from."""
         s, a, s_next, _ = self.expert_tuples()
         model = self.balance_model
         generator = th.Generator(device=self.device).manual_seed(int(self.seed or 0) + 7919)
@@ -416,7 +382,7 @@ class MBILC(OfflineAlgorithm):
         if self.model_report is not None:
             self.model_report["corrective_labels"] = {"kept": int(keep.sum()), "tried": len(keep),
                                                       "median_gap": float(gap.nan_to_num(float("inf")).median())}
-        return {"states": x[keep], "model_actions": actions[keep], "model_tuples": th.nonzero(keep).view(-1) // k}
+        return x[keep], actions[keep], th.nonzero(keep).view(-1) // k
 
     @th.no_grad()
     def validation_losses(self, expert_data: ExpertData) -> dict[str, float]:
@@ -441,84 +407,104 @@ class MBILC(OfflineAlgorithm):
                 self.logger.record("model/transition_heldout_ll", self.model_report["transition"]["heldout_ll"])
 
     def _train_step(self) -> None:
-        pairs, cache = self.expert_pairs(), self.balance_targets()
-        i = self._sample_indices(len(pairs.observations))
-        use_model = self.alpha_model > 0 and len(cache["states"]) > 0
-        j = self._sample_indices(len(cache["states"])) if use_model else None
-        use_orphans = self.alpha > 0 and "orphan_states" in cache
-        k = self._sample_indices(len(cache["orphan_states"])) if use_orphans else None
-        # one forward pass over the expert states s, the model states s~' and the orphan tuples' s'
-        states = [pairs.observations[i]] + ([cache["states"][j]] if use_model else []) \
-            + ([cache["orphan_states"][k]] if use_orphans else [])
-        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
-        n = len(i)
-        heads_s = [h[:n] for h in heads]
-        n_model = len(j) if use_model else 0
-        heads_model = [h[n:n + n_model] for h in heads]
-        heads_orphan = [h[n + n_model:] for h in heads]
-        loss = th.zeros((), device=self.device)
-
-        # Discrete, KL, no model or orphan states: BC and the balance term at the data are one cross-entropy against
-        # the cached soft labels (the same gradient, one fused op); the two terms are logged every 10th update.
-        if "soft_labels" in cache and self._divergence == "kl" and not use_model and not use_orphans:
-            loss = th.nn.functional.cross_entropy(heads_s[0], cache["soft_labels"][i])
-            if self.logit_penalty > 0:  # Logit penalty: lambda * mean of the squared logits at the expert states.
-                loss = loss + self.logit_penalty * logit_penalty(heads_s)
-            self.policy.optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            self.policy.optimizer.step()
-            self._record("train/loss", loss)
-            if self.num_timesteps % 10 == 0:
-                with th.no_grad():
-                    log_pi = th.log_softmax(heads_s[0].detach(), dim=-1)
-                    self._record("train/bc_loss", -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean())
-                    kl = cache["neg_entropy"][i] - (cache["probs"][i] * log_pi).sum(dim=1)
-                    self._record("train/balance_loss", (kl * cache["weight"][i]).mean())
-            return
-
-        log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete else None  # once, for both terms
-
-        # BC term: L_BC(pi, D) on the expert's (s, a) pairs.
-        if self.beta > 0:
-            log_prob = None if log_pi is None else log_pi.gather(1, pairs.actions[i].view(-1, 1)).squeeze(1)
-            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind, log_prob=log_prob)
-            loss = loss + self.beta * bc
-            self._record("train/bc_loss", bc)
-
-        # Logit penalty (Discrete): lambda * mean of the squared logits at the expert states.
-        if self.logit_penalty > 0:
-            penalty = logit_penalty(heads_s)
-            loss = loss + self.logit_penalty * penalty
-            self._record("train/logit_penalty", penalty)
-
-        # Balance at the data: D(P(. | s, a, s') || pi(. | s')), over the pairs that have a predecessor (weight 0
-        # at a trajectory's first step; the weights average 1, so the term is the mean over those pairs).
-        if self.alpha > 0:
-            if log_pi is not None and self._divergence == "kl":
-                divergence = cache["neg_entropy"][i] - (cache["probs"][i] * log_pi).sum(dim=1)
-            else:
-                divergence = balance_divergence(self._divergence, self.policy, [d[i] for d in cache["data"]], heads_s)
-            balance = (divergence * cache["weight"][i]).mean() if cache["inner_share"] > 0 else divergence.sum() * 0
-            if use_orphans:  # tuples whose s' is not an expert pair's state (subsampled data)
-                orphan = balance_divergence(self._divergence, self.policy, [d[k] for d in cache["orphan_target"]],
-                                            heads_orphan).mean()
-                balance = cache["inner_share"] * balance + (1 - cache["inner_share"]) * orphan
-            loss = loss + self.alpha * balance
-            self._record("train/balance_loss", balance)
-
-        # Corrective labels (model_labels="corrective"): L_BC(pi) on the kept (s~, a~).
-        if use_model and self.model_labels == "corrective":
-            corrective = bc_loss(self.policy, heads_model, cache["model_actions"][j], self._bc_kind)
-            loss = loss + self.alpha_model * corrective
-            self._record("train/corrective_loss", corrective)
-
-        # Balance at model states: D(P(. | s, a, s~') || pi(. | s~')), s~' ~ T^kappa(. | s, a).
-        elif use_model:
-            model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in cache["model"]],
-                                          heads_model).mean()
-            loss = loss + self.alpha_model * model_kl
-            self._record("train/model_balance_loss", model_kl)
-
+        pairs, targets = self.expert_pairs(), self.balance_targets()
+        batch = self._minibatch(pairs, targets)
+        if self._fused(targets, batch):
+            loss = self._fused_loss(targets, batch)
+        else:
+            loss = th.zeros((), device=self.device)
+            if self.beta > 0:
+                loss = loss + self.beta * self._bc_term(pairs, batch)
+            if self.logit_penalty > 0:
+                loss = loss + self.logit_penalty * self._logit_penalty_term(batch)
+            if self.alpha > 0:
+                loss = loss + self.alpha * self._data_balance_term(targets, batch)
+            if batch.model is not None:
+                loss = loss + self.alpha_model * self._model_term(targets, batch)
         self.policy.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.policy.optimizer.step()
+        if self._fused(targets, batch):
+            self._record_fused_terms(pairs, targets, batch, loss)
+
+    def _minibatch(self, pairs, targets: BalanceTargets) -> Minibatch:
+        """Draw the update's expert pairs, model states and orphan tuples; one forward pass over all their states."""
+        i = self._sample_indices(len(pairs.observations))
+        use_model = self.alpha_model > 0 and len(targets.states) > 0
+        j = self._sample_indices(len(targets.states)) if use_model else None
+        use_orphans = self.alpha > 0 and targets.orphan_states is not None
+        k = self._sample_indices(len(targets.orphan_states)) if use_orphans else None
+        states = [pairs.observations[i]] + ([targets.states[j]] if use_model else []) \
+            + ([targets.orphan_states[k]] if use_orphans else [])
+        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
+        n, n_model = len(i), (len(j) if use_model else 0)
+        heads_s = [h[:n] for h in heads]
+        fused = targets.soft_labels is not None and self._divergence == "kl" and not use_model and not use_orphans
+        log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete and not fused else None
+        return Minibatch(i, j, k, heads_s, [h[n:n + n_model] for h in heads], [h[n + n_model:] for h in heads], log_pi)
+
+    def _fused(self, targets: BalanceTargets, batch: Minibatch) -> bool:
+        """Discrete, KL, no model or orphan states: the BC and the data balance terms are one cross-entropy."""
+        return targets.soft_labels is not None and self._divergence == "kl" and batch.model is None \
+            and batch.orphans is None
+
+    def _fused_loss(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
+        """beta * L_BC + alpha * KL at the data = CE(soft labels, pi) + const (the same gradient, one op), plus the
+        logit penalty."""
+        loss = th.nn.functional.cross_entropy(batch.heads[0], targets.soft_labels[batch.pairs])
+        if self.logit_penalty > 0:
+            loss = loss + self.logit_penalty * logit_penalty(batch.heads)
+        return loss
+
+    def _record_fused_terms(self, pairs, targets: BalanceTargets, batch: Minibatch, loss: th.Tensor) -> None:
+        """The fused loss every update; its two terms, recomputed without gradient, every 10th."""
+        self._record("train/loss", loss)
+        if self.num_timesteps % 10 == 0:
+            with th.no_grad():
+                i = batch.pairs
+                log_pi = th.log_softmax(batch.heads[0].detach(), dim=-1)
+                self._record("train/bc_loss", -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean())
+                kl = targets.neg_entropy[i] - (targets.probs[i] * log_pi).sum(dim=1)
+                self._record("train/balance_loss", (kl * targets.weight[i]).mean())
+
+    def _bc_term(self, pairs, batch: Minibatch) -> th.Tensor:
+        """BC term: L_BC(pi, D) on the expert's (s, a) pairs."""
+        i = batch.pairs
+        log_prob = None if batch.log_pi is None else batch.log_pi.gather(1, pairs.actions[i].view(-1, 1)).squeeze(1)
+        bc = bc_loss(self.policy, batch.heads, pairs.actions[i], self._bc_kind, log_prob=log_prob)
+        self._record("train/bc_loss", bc)
+        return bc
+
+    def _logit_penalty_term(self, batch: Minibatch) -> th.Tensor:
+        """Logit penalty (Discrete): mean of the squared logits at the expert states."""
+        penalty = logit_penalty(batch.heads)
+        self._record("train/logit_penalty", penalty)
+        return penalty
+
+    def _data_balance_term(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
+        """Balance at the data: D(P(. | s, a, s') || pi(. | s')) over the pairs that have a predecessor (weight 0 at a
+        trajectory's first step; the weights average 1), mixed with the orphan tuples in proportion to their numbers."""
+        i = batch.pairs
+        if batch.log_pi is not None and self._divergence == "kl":
+            divergence = targets.neg_entropy[i] - (targets.probs[i] * batch.log_pi).sum(dim=1)
+        else:
+            divergence = balance_divergence(self._divergence, self.policy, [d[i] for d in targets.data], batch.heads)
+        balance = (divergence * targets.weight[i]).mean() if targets.inner_share > 0 else divergence.sum() * 0
+        if batch.orphans is not None:  # tuples whose s' is not an expert pair's state (subsampled data)
+            orphan = balance_divergence(self._divergence, self.policy, [d[batch.orphans] for d in targets.orphan_target],
+                                        batch.heads_orphan).mean()
+            balance = targets.inner_share * balance + (1 - targets.inner_share) * orphan
+        self._record("train/balance_loss", balance)
+        return balance
+
+    def _model_term(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
+        """At model states: corrective labels, L_BC(pi) on the kept (s~, a~) (``model_labels="corrective"``); or the
+        balance D(P(. | s, a, s~') || pi(. | s~')) with s~' ~ T^kappa(. | s, a)."""
+        j = batch.model
+        if self.model_labels == "corrective":
+            corrective = bc_loss(self.policy, batch.heads_model, targets.model_actions[j], self._bc_kind)
+            self._record("train/corrective_loss", corrective)
+            return corrective
+        model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in targets.model], batch.heads_model).mean()
+        self._record("train/model_balance_loss", model_kl)
+        return model_kl
