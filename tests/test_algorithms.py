@@ -508,3 +508,11 @@ def test_mbil_joint_estimator_is_the_difference_of_two_flows(env_id, tmp_path):
     th.testing.assert_close(loaded.tuple_targets(), joint.tuple_targets())
     with pytest.raises(ValueError, match="estimator: expected one of 'factored', 'joint'"):
         MBIL("MlpPolicy", env_id, expert_data=demos, estimator="paper")
+
+
+@pytest.mark.parametrize("algo, env_id", CASES)
+def test_diagnostics_are_plain_values_with_the_fit_time(algo, env_id, data):
+    """The one way a harness reads an algorithm's own results: ``diagnostics()``, numbers and strings only."""
+    out = make(algo, env_id, data[env_id]).learn(10).diagnostics()
+    assert isinstance(out, dict) and out["fit_seconds"] >= 0.0
+    assert all(isinstance(v, (int, float, str)) and not isinstance(v, bool) for v in out.values()), out

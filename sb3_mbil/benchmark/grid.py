@@ -178,18 +178,8 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     model.learn(steps)
     train_seconds = time.perf_counter() - t0
     returns = evaluate(model, run.env, n_episodes, seed=1_000_000 + run.seed, n_envs=n_eval_envs)
-    report = getattr(model, "flow_report", None) or {}
-    diagnostics = {}
-    fit_seconds = report.get("fit_seconds", (getattr(model, "model_report", None) or {}).get("fit_seconds", 0.0))
-    if report:
-        diagnostics = {
-            "target_mean": round(float(model.tuple_targets().mean()), 4),
-            "p_heldout_ll": round(report["p_heldout_ll"], 4),
-            "transition_heldout_ll": round(report["transition_heldout_ll"], 4),
-            "next_action_noise": report["next_action"]["noise"],
-        }
-    if getattr(model, "returned_iteration", None) is not None:
-        diagnostics["returned_iteration"] = model.returned_iteration
+    diagnostics = model.diagnostics()
+    fit_seconds = diagnostics.pop("fit_seconds", 0.0)
     return {
         **asdict(run),
         "mean_return": float(np.mean(returns)),

@@ -254,6 +254,12 @@ class OfflineAlgorithm(BaseAlgorithm):
                 raise ValueError(f"observation: expected finite values, found {obs[idx]} at index {idx}")
         return super().predict(observation, state, episode_start, deterministic)
 
+    def diagnostics(self) -> dict[str, Any]:
+        """What the algorithm reports about its last ``learn`` beyond the logger, for result rows (a harness reads
+        this, never the algorithm's attributes): ``fit_seconds`` of any model it fitted before the policy, and the
+        algorithm's own (e.g. MBIL's held-out likelihoods). Override and extend ``super().diagnostics()``."""
+        return {"fit_seconds": 0.0}
+
     # ------------------------------------------------------------------ files
     def save(self, path: str | os.PathLike | io.BufferedIOBase, exclude=None, include=None) -> None:
         """SB3's ``save``, written whole or not at all: a failed or killed save leaves the old zip intact. The zip

@@ -196,6 +196,14 @@ class DSFN(OfflineAlgorithm):
         d = self.state.distances
         return [float(v) for v in d[~th.isnan(d)]]
 
+
+    def diagnostics(self) -> dict[str, Any]:
+        """Which pi_i the run returned (0: the warm-start classifier)."""
+        out = super().diagnostics()
+        if self.returned_iteration is not None:
+            out["returned_iteration"] = self.returned_iteration
+        return out
+
     @property
     def returned_iteration(self) -> int | None:
         """i of the returned pi_i, the first one closest to mu_E (0: the warm-start classifier); None before the

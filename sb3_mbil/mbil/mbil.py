@@ -335,6 +335,16 @@ class MBIL(OfflineAlgorithm):
         )
         return out
 
+    def diagnostics(self) -> dict[str, Any]:
+        """The flows' fit: its seconds, the mean balance target, held-out log-likelihoods and P's chosen noise."""
+        out = super().diagnostics()
+        if self.flow_report:
+            out.update(fit_seconds=self.flow_report["fit_seconds"], target_mean=round(float(self.tuple_targets().mean()), 4),
+                       p_heldout_ll=round(self.flow_report["p_heldout_ll"], 4),
+                       transition_heldout_ll=round(self.flow_report["transition_heldout_ll"], 4),
+                       next_action_noise=self.flow_report["next_action"]["noise"])
+        return out
+
     # ------------------------------------------------------------------ policy
     def _prepare_training(self) -> None:
         if not bool(self.flows.fitted):

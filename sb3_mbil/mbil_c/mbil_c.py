@@ -249,6 +249,13 @@ class MBILC(BalanceModels, OfflineAlgorithm):
                                                               self.policy.heads(s_next)).mean())
         return losses
 
+    def diagnostics(self) -> dict[str, Any]:
+        """The fit of P (and T when used): its seconds."""
+        out = super().diagnostics()
+        if self.model_report:
+            out["fit_seconds"] = self.model_report["fit_seconds"]
+        return out
+
     # ------------------------------------------------------------------ policy
     def _prepare_training(self) -> None:
         if not bool(self.balance_model.fitted):
