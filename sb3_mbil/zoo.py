@@ -27,8 +27,6 @@ HERE = Path(__file__).resolve().parent
 DATA_KEYS = ("expert_pool", "n_expert_trajectories", "expert_seed")
 ZOO_DEFAULT_EVAL_FREQ = 25000  # rl_zoo3.train's --eval-freq default
 
-NET_ARCH = {"small": [64, 64], "medium": [256, 256]}
-FLOW_HIDDEN = {"small": [32, 32], "medium": [64, 64], "large": [128, 128]}
 
 
 def hyperparams_file(algo: str) -> Path:
@@ -46,137 +44,61 @@ def algorithms() -> dict[str, type]:
 
 
 # ---------------------------------------------------------------------- Optuna samplers
-def _common(trial, lr_range: tuple[float, float] = (1e-4, 3e-3)) -> dict[str, Any]:
-    return {
-        "learning_rate": trial.suggest_float("learning_rate", *lr_range, log=True),
-        "batch_size": trial.suggest_categorical("batch_size", [32, 64, 128, 256]),
-        "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCH)),
-    }
+def _zoo_module(name: str):
+    """The ``zoo`` module beside the algorithm registered as ``name`` (its folder's ``zoo.py``)."""
+    import importlib
+
+    package = algorithms()[name].__module__.rsplit(".", 1)[0]
+    try:
+        return importlib.import_module(f"{package}.zoo")
+    except ModuleNotFoundError:
+        return None
 
 
-def sample_mbil_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for MBIL: balance and BC weights, policy learning rate and size, flow noise and size, estimator."""
-    params = _common(trial)
-    params["alpha"] = trial.suggest_float("alpha", 1e-3, 10.0, log=True)
-    params["beta"] = trial.suggest_float("beta", 1e-3, 10.0, log=True)
-    params["noise"] = trial.suggest_categorical("noise", ["auto", 0.01, 0.03, 0.1, 0.3])
-    params["flow_hidden"] = trial.suggest_categorical("flow_hidden", list(FLOW_HIDDEN))
-    params["flow_transforms"] = trial.suggest_int("flow_transforms", 2, 6)
-    params["estimator"] = trial.suggest_categorical("estimator", ["factored", "joint"])
-    return convert_mbil_params(params)
+class _PerAlgorithm(dict):
+    """``{name: its folder's zoo.<attribute>}`` for every registered algorithm that has one (read when first used,
+    so that registering an algorithm is its line in ``sb3_mbil.ALGORITHMS`` and its folder's ``zoo.py``)."""
+
+    def __init__(self, attribute: str):
+        super().__init__()
+        self.attribute = attribute
+        self.loaded = False
+
+    def _load(self):
+        if not self.loaded:
+            self.loaded = True
+            for name in algorithms():
+                module = _zoo_module(name)
+                if module is not None and hasattr(module, self.attribute) and name not in self:
+                    super().__setitem__(name, getattr(module, self.attribute))
+
+    def __getitem__(self, key):
+        self._load()
+        return super().__getitem__(key)
+
+    def __contains__(self, key):
+        self._load()
+        return super().__contains__(key)
+
+    def __delitem__(self, key):
+        self._load()
+        super().__delitem__(key)
+
+    def __iter__(self):
+        self._load()
+        return super().__iter__()
 
 
-def convert_mbil_params(params: dict[str, Any]) -> dict[str, Any]:
-    out = convert_bc_params(params)
-    noise = out.pop("noise", "auto")
-    if noise != "auto":
-        out["noise_grid"] = [float(noise)]
-    if isinstance(out.get("flow_hidden"), str):
-        out["flow_hidden"] = FLOW_HIDDEN[out["flow_hidden"]]
-    return out
-
-
-def sample_bc_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for BC: learning rate, batch size, network size, weight decay."""
-    params = _common(trial)
-    params["weight_decay"] = trial.suggest_categorical("weight_decay", [0.0, 1e-4, 1e-3, 1e-2])
-    return convert_bc_params(params)
-
-
-def convert_bc_params(params: dict[str, Any]) -> dict[str, Any]:
-    out = dict(params)
-    if isinstance(out.get("net_arch"), str):
-        out["policy_kwargs"] = {"net_arch": NET_ARCH[out.pop("net_arch")]}
-    return out
-
-
-def sample_edm_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for EDM: learning rate, batch size, network size, energy weight, SGLD steps."""
-    params = _common(trial)
-    params["energy_weight"] = trial.suggest_float("energy_weight", 0.1, 10.0, log=True)
-    params["sgld_steps"] = trial.suggest_categorical("sgld_steps", [10, 20, 40])
-    return convert_bc_params(params)
-
-
-def sample_avril_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for AVRIL: learning rate, batch size, network size, TD-likelihood weight, discount."""
-    params = _common(trial, lr_range=(1e-5, 1e-3))
-    params["reward_weight"] = trial.suggest_float("reward_weight", 0.1, 10.0, log=True)
-    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.99, 1.0])
-    return convert_bc_params(params)
-
-
-def sample_rcal_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for RCAL: learning rate, batch size, network size, sparsity weight, classification loss."""
-    params = _common(trial)
-    params["reward_weight"] = trial.suggest_float("reward_weight", 1e-3, 1.0, log=True)
-    params["classification_loss"] = trial.suggest_categorical("classification_loss", ["cross_entropy", "margin"])
-    params["soft_max"] = trial.suggest_categorical("soft_max", [True, False])
-    return convert_bc_params(params)
-
-
-def sample_dsfn_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for DSFN: learning rate, batch size, network size, discount, DQN and successor-feature steps."""
-    params = _common(trial)
-    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.95, 0.99])
-    params["dqn_steps"] = trial.suggest_categorical("dqn_steps", [10_000, 30_000])
-    params["sf_steps"] = trial.suggest_categorical("sf_steps", [10_000, 50_000])
-    return convert_bc_params(params)
-
-
-def sample_mbil_c_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for MBIL-C: balance weights at data and model states, BC weight, model draws and their spread."""
-    params = _common(trial)
-    params["alpha"] = trial.suggest_float("alpha", 1e-2, 10.0, log=True)
-    params["alpha_model"] = trial.suggest_categorical("alpha_model", [0.0, 0.1, 0.3, 1.0, 3.0])
-    params["beta"] = trial.suggest_float("beta", 1e-1, 10.0, log=True)
-    params["n_model_states"] = trial.suggest_categorical("n_model_states", [1, 4, 16])
-    params["model_state_scale"] = trial.suggest_categorical("model_state_scale", [0.5, 1.0, 2.0, 4.0])
-    params["weight_decay"] = trial.suggest_categorical("weight_decay", [0.0, 1e-4, 1e-3])
-    return convert_bc_params(params)
-
-
-def sample_iq_learn_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for IQ-Learn: learning rate, batch size, network size, temperature, chi^2 alpha, discount."""
-    params = _common(trial, lr_range=(1e-5, 1e-3))
-    params["temperature"] = trial.suggest_categorical("temperature", [0.001, 0.01, 0.1])
-    params["alpha"] = trial.suggest_categorical("alpha", [0.1, 0.5, 1.0])
-    params["gamma"] = trial.suggest_categorical("gamma", [0.9, 0.99])
-    return convert_bc_params(params)
-
-
-def sample_valuedice_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for ValueDICE: actor and nu learning rates, batch size, network size, orthogonal regulariser, gradient
-    penalty."""
-    params = _common(trial, lr_range=(1e-6, 1e-4))
-    params["nu_learning_rate"] = trial.suggest_float("nu_learning_rate", 1e-4, 1e-2, log=True)
-    params["orthogonal_weight"] = trial.suggest_categorical("orthogonal_weight", [0.0, 1e-4, 1e-3])
-    params["gradient_penalty"] = trial.suggest_categorical("gradient_penalty", [0.0, 1.0, 10.0])
-    return convert_bc_params(params)
-
-
-def sample_odice_params(trial, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
-    """Sampler for ODICE: learning rates, batch size, network size, lambda, eta."""
-    params = _common(trial, lr_range=(1e-5, 1e-3))
-    params["value_learning_rate"] = trial.suggest_float("value_learning_rate", 1e-5, 1e-3, log=True)
-    params["lambda_"] = trial.suggest_categorical("lambda_", [0.2, 0.4, 0.6, 0.8])
-    params["eta"] = trial.suggest_categorical("eta", [0.5, 1.0, 2.0])
-    return convert_bc_params(params)
-
-
-SAMPLERS = {"mbil": sample_mbil_params, "mbil_c": sample_mbil_c_params, "bc": sample_bc_params, "edm": sample_edm_params, "avril": sample_avril_params,
-            "rcal": sample_rcal_params, "dsfn": sample_dsfn_params, "iq_learn": sample_iq_learn_params,
-            "valuedice": sample_valuedice_params, "odice": sample_odice_params}
-CONVERTERS = {"mbil": convert_mbil_params, "mbil_c": convert_bc_params, "bc": convert_bc_params, "edm": convert_bc_params, "avril": convert_bc_params,
-              "rcal": convert_bc_params, "dsfn": convert_bc_params, "iq_learn": convert_bc_params,
-              "valuedice": convert_bc_params, "odice": convert_bc_params}
+SAMPLERS = _PerAlgorithm("sample_params")
+CONVERTERS = _PerAlgorithm("convert_params")
 
 
 def check_registration(algos: dict[str, type] | None = None) -> None:
     """Every registered algorithm needs its own sampler, converter and hyperparameter file (never BC's by default)."""
     for name in algos or algorithms():
-        missing = [what for what, ok in (("an Optuna sampler (sb3_mbil.zoo.SAMPLERS)", name in SAMPLERS),
-                                         ("a converter (sb3_mbil.zoo.CONVERTERS)", name in CONVERTERS)) if not ok]
+        missing = [what for what, ok in (("an Optuna sampler (sample_params in its folder's zoo.py)", name in SAMPLERS),
+                                         ("a converter (convert_params in its folder's zoo.py)", name in CONVERTERS))
+                   if not ok]
         try:
             hyperparams_file(name)
         except FileNotFoundError:
