@@ -30,11 +30,20 @@ ZOO_DEFAULT_EVAL_FREQ = 25000  # rl_zoo3.train's --eval-freq default
 
 
 def hyperparams_file(algo: str) -> Path:
-    """Our default ``<algo>.yml``: inside the installed package, or ``zoo_hyperparams/`` of a source checkout."""
-    for folder in (HERE / "zoo_hyperparams", HERE.parent / "zoo_hyperparams"):
+    """The default ``<algo>.yml``: inside the installed package, ``zoo_hyperparams/`` of a source checkout, or beside
+    the algorithm's own module (an algorithm registered from a package of its own)."""
+    folders = [HERE / "zoo_hyperparams", HERE.parent / "zoo_hyperparams"]
+    cls = algorithms().get(algo)
+    if cls is not None:
+        import sys
+
+        module = sys.modules.get(cls.__module__)
+        if module is not None and getattr(module, "__file__", None):
+            folders.append(Path(module.__file__).resolve().parent)
+    for folder in folders:
         if (folder / f"{algo}.yml").is_file():
             return folder / f"{algo}.yml"
-    raise FileNotFoundError(f"no zoo hyperparameter file for {algo!r} in sb3_mbil")
+    raise FileNotFoundError(f"no zoo hyperparameter file for {algo!r} in sb3_mbil nor beside its module")
 
 
 def algorithms() -> dict[str, type]:
