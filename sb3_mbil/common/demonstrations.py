@@ -28,6 +28,8 @@ from typing import Any, Union
 import numpy as np
 from gymnasium import spaces
 
+from sb3_mbil.experts.specs import EXPERTS  # the first pools' experts
+
 FORMAT_VERSION = 2  # 2: optional final actions of trajectory pieces
 _REQUIRED_KEYS = ("observations", "actions", "n_observations", "n_actions", "terminated", "truncated")
 
@@ -667,8 +669,6 @@ def pool_name(env_id: str, expert: str | None = None, actions: str = "determinis
     expert = str(expert).lower()
     if f"{env_id}-{expert}{suffix}" in pools:
         return f"{env_id}-{expert}{suffix}"
-    from sb3_mbil.experts.generate import EXPERTS  # the first pools' experts
-
     first = EXPERTS.get(env_id)
     if first is not None and first.algo == expert and env_id + suffix in pools:
         return env_id + suffix
