@@ -98,6 +98,13 @@ def grid_table(rows, chosen) -> str:
     return "\n".join(lines)
 
 
+def bc_star(chosen, env: str, pool: str, n: int) -> str:
+    """BC* of a noise pool: BC's best variant in that pool's own tuning, or (until it has run) in the tuning on the
+    same expert's sampled pool at the same N, as the crossover's runs chose it (``--tuning-pool``)."""
+    own = chosen.get((env, pool, n), {}).get("bc")
+    return own or chosen.get((env, f"{env}-sampled", n), {}).get("bc", "bc")
+
+
 def crossover_table(rows, chosen_by_pool) -> str:
     """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds)."""
     cells = _by_cell(rows)
@@ -108,7 +115,7 @@ def crossover_table(rows, chosen_by_pool) -> str:
                   "|---|---|---|---|---|---|---|"]
         for pool in pools:
             variants = cells[(env, pool, n)]
-            star = chosen_by_pool.get((env, pool, n), {}).get("bc", "bc")
+            star = bc_star(chosen_by_pool, env, pool, n)
 
             def cell(name):
                 v = np.array(list(variants.get(name, {}).values()))
@@ -140,7 +147,7 @@ def plot_crossover(rows, chosen_by_pool, path: str) -> None:
     for ax, (env, n) in zip(axes[0], keys):
         pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
         levels = [noise_level(p) for p in pools]
-        for label, pick in (("BC", lambda p: "bc"), ("BC*", lambda p: chosen_by_pool.get((env, p, n), {}).get("bc", "bc")),
+        for label, pick in (("BC", lambda p: "bc"), ("BC*", lambda p: bc_star(chosen_by_pool, env, p, n)),
                             ("MBIL", lambda p: "mbil"), ("MBIL-C", lambda p: "mbil_c")):
             means = [np.mean(list(cells[(env, p, n)].get(pick(p), {np.nan: np.nan}).values())) for p in pools]
             ax.plot(levels, means, marker="o", label=label)
