@@ -216,6 +216,7 @@ def test_iq_learn_critic_stays_finite_and_ranks_expert_actions_first(env_id, ste
         assert seen[-1]["train/q_expert"] - seen[-1]["train/q_random"] > 1.0
 
 
+@pytest.mark.slow  # minutes under load: run by CI with -m slow
 @pytest.mark.parametrize("name, env_id, keys", [
     ("valuedice", "CartPole-v1", ("train/objective", "train/nu_expert", "train/nu_initial")),
     ("odice", "Pendulum-v1", ("train/value_forward", "train/value_backward", "train/weight_mean")),

@@ -107,6 +107,7 @@ def test_rows_of_runs_on_the_same_data_are_reused_not_rerun(tmp_path):
     assert sorted(r["algo"] for r in rows_of(out)) == ["avril", "bc", "bc"]
 
 
+@pytest.mark.slow  # minutes under load: run by CI with -m slow
 def test_ray_grid(tmp_path):
     out = tmp_path / "r.csv"
     grid = [Run("mbil", "CartPole-v1", 1, 0), Run("bc", "CartPole-v1", 1, 0)]

@@ -377,6 +377,7 @@ def test_a_reward_set_from_the_start_trains_on_it_and_evaluates_on_the_env_as_it
         assert (ev["results"] > 0).all()  # evaluated on CartPole-v1's own reward
 
 
+@pytest.mark.slow  # minutes under load: run by CI with -m slow
 def test_a_carried_checkpoint_continues_the_training_on_an_empty_cache(tmp_path, monkeypatch):
     """Machines that start with an empty cache: the newest checkpoint, exported without its replay buffer to a folder
     that can be committed, is where the next machine's training continues (on a buffer its own policy refills)."""

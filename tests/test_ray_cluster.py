@@ -48,6 +48,7 @@ def cluster():
     c.shutdown()
 
 
+@pytest.mark.slow  # minutes under load: run by CI with -m slow
 def test_grid_on_a_cluster_survives_a_lost_worker(cluster, tmp_path):
     c, workers = cluster
     out = tmp_path / "grid.csv"
