@@ -440,3 +440,18 @@ def test_results_files_are_parsed_as_csv_records_and_appended_whole(tmp_path, mo
         append_rows(path, [{"algo": "bc", "seed": 5 + i, "settings": ""} for i in range(60)], columns)
     monkeypatch.setattr(results.os, "fsync", real_fsync)
     assert path.read_text() == text  # none of the 60 rows: the run is redone whole
+
+
+def test_the_saved_optimiser_settles_the_weight_decay_of_a_zip(demo, tmp_path):
+    import json
+
+    BC("MlpPolicy", "CartPole-v1", expert_data=demo, weight_decay=0.01).save(tmp_path / "w.zip")
+    older = _rewrite_zip(tmp_path / "w.zip", tmp_path / "older.zip", lambda n, c: json.dumps(
+        {k: v for k, v in json.loads(c).items() if k != "weight_decay"}) if n == "data" else c)
+    with pytest.warns(UserWarning, match=r"weight_decay: taken from the saved optimiser \(0.01\)"):
+        model = BC.load(older)
+    assert model.weight_decay == 0.01 and model.policy.optimizer.param_groups[0]["weight_decay"] == 0.01
+    edited = _rewrite_zip(tmp_path / "w.zip", tmp_path / "edited.zip", lambda n, c: json.dumps(
+        {**json.loads(c), "weight_decay": 0.5}) if n == "data" else c)
+    with pytest.raises(ValueError, match=r"weight_decay: expected the saved optimiser's weight decay \(0.01\), found 0.5"):
+        BC.load(edited)

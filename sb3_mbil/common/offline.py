@@ -326,9 +326,28 @@ class OfflineAlgorithm(BaseAlgorithm):
             raise
         if raw is not None:
             warn_unknown_entries(model, raw, where)
+            model._match_optimizer_weight_decay(raw, where)
         if model.expert_data is not None and model.env is not None:
             model.demonstrations()
         return model
+
+    def _match_optimizer_weight_decay(self, raw: bytes, where: str) -> None:
+        """The saved optimiser is the record of the weight decay a model trained with: a zip without the
+        ``weight_decay`` entry (an older version) takes it from there; one whose entry disagrees with it is refused."""
+        saved = {g.get("weight_decay") for g in self.policy.optimizer.param_groups}
+        if len(saved) != 1:
+            return
+        (optimizer_wd,) = saved
+        if optimizer_wd is None or float(optimizer_wd) == float(self.weight_decay):
+            return
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            has_entry = "weight_decay" in json.loads(archive.read("data"))
+        if has_entry:
+            raise ValueError(f"{where}: weight_decay: expected the saved optimiser's weight decay "
+                             f"({optimizer_wd}), found {self.weight_decay} (a zip edited or assembled from two models)")
+        warnings.warn(f"{where}: weight_decay: taken from the saved optimiser ({optimizer_wd}); the zip has no entry "
+                      "for it", stacklevel=3)
+        self.weight_decay = float(optimizer_wd)
 
     @classmethod
     def _check_saved_by(cls, path: Path, raw: bytes | None = None) -> None:
