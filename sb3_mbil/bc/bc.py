@@ -42,7 +42,7 @@ class BC(OfflineAlgorithm):
 
         min_theta  (1 - epsilon) L_BC(pi_theta, D) + epsilon * E_{s ~ D}[-(1/K) sum_b log pi_theta(b|s)]
 
-    It is the control of MBIL-C's soft labels beta * onehot(a) + alpha * w * P(. | s, a, s') (issue 18): the same
+    It is the control of MBIL-C's soft labels beta * onehot(a) + alpha * w * P(. | s, a, s'): the same
     kind of target with a label that knows nothing of the expert.
 
     :param policy: ``"MlpPolicy"`` or a policy class

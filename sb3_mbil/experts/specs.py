@@ -56,7 +56,7 @@ EXPERTS: dict[str, ExpertSpec] = {
 }
 
 #: zoo trainings of an env by another algorithm than its shipped pool's expert, with their own settings (``--algo``).
-#: Ant-v4's SAC (issue 19; seed 0, the expert of the pool shipped before the TD3 one) never ran 95% of its episodes to
+#: Ant-v4's SAC (seed 0, the expert of the pool shipped before the TD3 one) never ran 95% of its episodes to
 #: the time limit; 1 525 000 steps, the last 175 000 at a learning rate of 1e-4, left it jumping above the healthy
 #: height in 23-50% of them (docs/experts.md). rl_zoo3's tqc.yml lists Ant-v4 with 1e6-step defaults, like its sac.yml. TQC was
 #: stopped at 375 000 steps: its evaluations were 748-822 over its last 75 000 steps (SAC's were near 3 000 by
