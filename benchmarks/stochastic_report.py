@@ -106,7 +106,8 @@ def bc_star(chosen, env: str, pool: str, n: int) -> str:
 
 
 def crossover_table(rows, chosen_by_pool) -> str:
-    """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds)."""
+    """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds, the
+    number of seeds in brackets)."""
     cells = _by_cell(rows)
     lines = []
     for env, n in sorted({(e, n) for e, _, n in cells}):
@@ -119,7 +120,8 @@ def crossover_table(rows, chosen_by_pool) -> str:
 
             def cell(name):
                 v = np.array(list(variants.get(name, {}).values()))
-                return "" if len(v) == 0 else f"{v.mean():.1f} +- {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.1f}"
+                return "" if len(v) == 0 else \
+                    f"{v.mean():.1f} +- {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.1f} ({len(v)})"
 
             def diff(name):
                 common = sorted(set(variants.get(name, {})) & set(variants.get(star, {})))
