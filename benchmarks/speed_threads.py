@@ -45,6 +45,7 @@ def main(argv=None) -> None:
     p.add_argument("--busy", type=int, default=2)
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--csv", default=None)
+    p.add_argument("--note", default="", help="what else ran on the machine (recorded in each row)")
     a = p.parse_args(argv)
     from sb3_mbil.benchmark.grid import git_commit
     from sb3_mbil.benchmark.results import append_rows
@@ -52,7 +53,7 @@ def main(argv=None) -> None:
     snippet = quick_start(Path(__file__).resolve().parent.parent / "README.md")
     one_thread = "import torch\ntorch.set_num_threads(1)\n" + snippet
     busy = [subprocess.Popen([sys.executable, "-c", BUSY]) for _ in range(a.busy)]
-    columns = ["busy", "repeat", "verbatim_wall_s", "one_thread_wall_s", "ratio_wall", "verbatim_cpu_s",
+    columns = ["busy", "note", "repeat", "verbatim_wall_s", "one_thread_wall_s", "ratio_wall", "verbatim_cpu_s",
                "one_thread_cpu_s", "commit"]
     ratios, commit = [], git_commit()
     try:
@@ -60,7 +61,7 @@ def main(argv=None) -> None:
             wall_a, cpu_a = timed(snippet)
             wall_b, cpu_b = timed(one_thread)
             ratios.append(wall_a / wall_b)
-            row = {"busy": a.busy, "repeat": r, "verbatim_wall_s": round(wall_a, 1), "one_thread_wall_s": round(wall_b, 1),
+            row = {"busy": a.busy, "note": a.note, "repeat": r, "verbatim_wall_s": round(wall_a, 1), "one_thread_wall_s": round(wall_b, 1),
                    "ratio_wall": round(ratios[-1], 3), "verbatim_cpu_s": round(cpu_a, 1),
                    "one_thread_cpu_s": round(cpu_b, 1), "commit": commit}
             if a.csv:
