@@ -299,14 +299,14 @@ class OfflineAlgorithm(BaseAlgorithm):
             if target.is_file():
                 raw = target.read_bytes()  # read once: what is checked is what is loaded
                 cls._check_saved_by(target, raw)
+        if safe and raw is None:
+            if not hasattr(path, "read"):
+                raise FileNotFoundError(f"model zip not found: {path}")
+            raw = path.read()
         if raw is not None:
             check_version(raw, where)
             check_members(cls, raw, where)
         if safe:
-            if raw is None:
-                if not hasattr(path, "read"):
-                    raise FileNotFoundError(f"model zip not found: {path}")
-                raw = path.read()
             objects = safe_custom_objects(cls, raw, where)
             custom_objects = {**objects, **(custom_objects or {})}
         if isinstance(env, str):
