@@ -41,11 +41,21 @@ def _by_cell(rows):
     return out
 
 
+def _complete(variants: dict, env: str, algo: str) -> bool:
+    """Whether every configuration of ``algo`` ran on every tuning seed in this cell."""
+    from benchmarks.stochastic import TUNING_SEEDS
+
+    names = [v for v, spec in variants_for(env).items() if spec.algo == algo]
+    return all(set(TUNING_SEEDS) <= set(variants.get(v, {})) for v in names)
+
+
 def tuning_table(rows) -> tuple[str, dict]:
-    """Markdown: each variant's mean over the tuning seeds per (env, pool, N); and the chosen variants."""
+    """Markdown: each variant's mean over the tuning seeds per (env, pool, N); and the chosen variants (an algorithm
+    is chosen for only once its whole budget has run in the cell)."""
     lines, chosen = [], {}
     for (env, pool, n), variants in sorted(_by_cell(rows).items()):
-        best = best_variants(rows, env, pool, n)
+        best = {algo: name for algo, name in best_variants(rows, env, pool, n).items()
+                if _complete(variants, env, algo)}
         chosen[(env, pool, n)] = best
         seeds = sorted({s for v in variants.values() for s in v})
         lines += [f"**{env}, pool {pool}, N = {n}** (tuning seeds {', '.join(map(str, seeds))})", "",
