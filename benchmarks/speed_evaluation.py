@@ -61,8 +61,8 @@ def main(argv=None) -> None:
         return
     import time
 
-    from sb3_mbil.benchmark.grid import git_commit
-    from sb3_mbil.benchmark.results import append_rows
+    from benchmarks.harness.grid import git_commit
+    from benchmarks.harness.results import append_rows
 
     columns = ["env", "episodes", "envs", "repeat", "ours_cpu_s", "sb3_cpu_s", "ratio", "same_returns", "commit"]
     commit, ratios = git_commit(), []

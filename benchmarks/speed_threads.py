@@ -47,8 +47,8 @@ def main(argv=None) -> None:
     p.add_argument("--csv", default=None)
     p.add_argument("--note", default="", help="what else ran on the machine (recorded in each row)")
     a = p.parse_args(argv)
-    from sb3_mbil.benchmark.grid import git_commit
-    from sb3_mbil.benchmark.results import append_rows
+    from benchmarks.harness.grid import git_commit
+    from benchmarks.harness.results import append_rows
 
     snippet = quick_start(Path(__file__).resolve().parent.parent / "README.md")
     one_thread = "import torch\ntorch.set_num_threads(1)\n" + snippet

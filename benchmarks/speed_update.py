@@ -39,8 +39,8 @@ def main(argv=None) -> None:
     a = p.parse_args(argv)
     th.set_num_threads(1)
     from sb3_mbil import BC, load_demonstrations
-    from sb3_mbil.benchmark.grid import git_commit
-    from sb3_mbil.benchmark.results import append_rows
+    from benchmarks.harness.grid import git_commit
+    from benchmarks.harness.results import append_rows
 
     demos = load_demonstrations("CartPole-v1").sample(1, seed=0)
     pairs = demos.pairs()

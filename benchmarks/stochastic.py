@@ -28,8 +28,8 @@ import numpy as np
 import torch as th
 
 from sb3_mbil import ALGORITHMS
-from sb3_mbil.benchmark.grid import git_commit, tuned_settings
-from sb3_mbil.benchmark.results import append_rows, finished_keys
+from benchmarks.harness.grid import git_commit, tuned_settings
+from benchmarks.harness.results import append_rows, finished_keys
 from sb3_mbil.common.demonstrations import load_demonstrations
 from sb3_mbil.common.evaluation import evaluate
 from sb3_mbil.common.heldout import ValidationCallback
@@ -173,7 +173,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
     ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
     tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants.
     """
-    from sb3_mbil.benchmark.results import read_result_rows
+    from benchmarks.harness.results import read_result_rows
 
     table = variants_for(env_id)
     unknown = [v for v in variants if v not in table]

@@ -19,8 +19,8 @@ from collections import defaultdict
 import numpy as np
 
 from benchmarks.stochastic import best_variants, variants_for
-from sb3_mbil.benchmark.report import paired_interval
-from sb3_mbil.benchmark.results import read_result_rows, write_text
+from benchmarks.harness.report import paired_interval
+from benchmarks.harness.results import read_result_rows, write_text
 
 ALGOS = ("bc", "mbil", "mbil_c")
 

@@ -26,6 +26,8 @@ import torch as th
 from gymnasium import spaces
 from torch import nn
 
+from sb3_mbil.common.files import atomic_write
+
 
 class DeterministicActor(nn.Module):
     """``predict(obs, deterministic=True)`` of an SB3 policy as a plain module (batch of flat float32 observations)."""
@@ -60,8 +62,6 @@ def export_policy(model, path: str | os.PathLike, input_layout: str | None = Non
         ``VecTransposeImage``, else ``"policy"`` (the two are the same for vector observations).
     """
     from stable_baselines3.common.vec_env import VecTransposeImage, is_vecenv_wrapped
-
-    from sb3_mbil.common.files import atomic_write
 
     if input_layout is None:
         env = getattr(model, "env", None)

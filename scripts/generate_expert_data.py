@@ -19,7 +19,7 @@ import sys
 
 import torch
 
-from sb3_mbil.benchmark.cli import check_output, finite_float, positive_int, run, seed
+from sb3_mbil.common.cli import check_output, finite_float, positive_int, run, seed
 
 
 def main(argv=None):

@@ -9,7 +9,7 @@ import inspect
 import sys
 from pathlib import Path
 
-from sb3_mbil.benchmark.cli import run
+from sb3_mbil.common.cli import run
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -50,7 +50,7 @@ def main(argv=None):
     p.add_argument("--out", default=str(REPO / "docs" / "algorithms"))
     a = p.parse_args(argv)
     from sb3_mbil import ALGORITHMS
-    from sb3_mbil.benchmark.results import write_text
+    from sb3_mbil.common.files import write_text
 
     index = ["# Algorithms", "", "| name | class | actions |", "|---|---|---|"]
     for name, cls in ALGORITHMS.items():

@@ -6,7 +6,7 @@
 import os
 
 from sb3_mbil import load_demonstrations
-from sb3_mbil.benchmark.cli import run
+from sb3_mbil.common.cli import run
 from sb3_mbil.common.demonstrations import POOL_DIR, available_pools
 
 

@@ -10,7 +10,7 @@ by the checkpoint's own policy, --refill-steps transitions).
 import argparse
 import logging
 
-from sb3_mbil.benchmark.cli import positive_int, run, seed
+from sb3_mbil.common.cli import positive_int, run, seed
 
 
 def main(argv=None):

@@ -12,7 +12,7 @@ import pytest
 import torch as th
 
 from sb3_mbil import ALGORITHMS, BC, MBIL, Demonstrations, Trajectory, load_demonstrations
-from sb3_mbil.robustness import native_demo, native_env
+from sb3_mbil.experts.controllers import native_demo, native_env
 
 FAST = {"mbil": dict(flow_max_steps=30, noise_grid=(0.1,), flow_hidden=(16,), flow_transforms=2),
         "mbil_c": dict(model_max_steps=30, model_hidden=(16,)),
@@ -179,81 +179,6 @@ def test_data_recorded_on_another_env_is_warned_about(tmp_path):
         BC("MlpPolicy", "CartPole-v1", expert_data=d)
 
 
-# ---------------------------------------------------------------------------------------------- results CSV
-def _grid_csv(tmp_path):
-    from sb3_mbil.benchmark.grid import RESULT_COLUMNS as COLUMNS
-
-    path = tmp_path / "grid.csv"
-    from sb3_mbil.benchmark.results import append_rows
-
-    append_rows(path, [{c: f"{c}{i}" for c in COLUMNS} | {"algo": "bc", "env": "CartPole-v1", "n_trajectories": "1",
-                                                          "seed": str(i)} for i in range(3)], COLUMNS)
-    return path, COLUMNS
-
-
-@pytest.mark.parametrize("cut", [40, 5])
-def test_an_interrupted_last_line_is_dropped_said_and_redone_on_a_fresh_line(tmp_path, cut, caplog):
-    from sb3_mbil.benchmark.grid import KEY_COLUMNS as KEY
-    from sb3_mbil.benchmark.results import append_rows, finished_keys, read_result_rows
-
-    path, columns = _grid_csv(tmp_path)
-    whole = path.read_bytes()
-    path.write_bytes(whole[:-cut])  # the last row cut mid-line (truncate -s -40)
-    with pytest.raises(ValueError, match=r"grid.csv:4: expected complete lines, found an unterminated last line"):
-        read_result_rows(path)  # reports refuse it
-    keys = finished_keys(path, KEY)  # resume drops it, saying so, and redoes that run
-    assert ("bc", "CartPole-v1", "1", "2") not in keys and len(keys) == 2
-    assert "dropped an incomplete last line" in caplog.text
-    append_rows(path, [{c: "x" for c in columns} | {"algo": "bc", "env": "CartPole-v1", "n_trajectories": "1", "seed": "2"}],
-                columns)
-    rows = read_result_rows(path)
-    assert len(rows) == 3 and rows[-1]["seed"] == "2" and all(len(r) == len(columns) for r in rows)
-
-
-def test_a_malformed_middle_line_is_refused_with_path_and_line(tmp_path):
-    from sb3_mbil.benchmark.grid import KEY_COLUMNS as KEY
-    from sb3_mbil.benchmark.results import finished_keys, read_result_rows
-
-    path, _ = _grid_csv(tmp_path)
-    lines = path.read_text().splitlines(keepends=True)
-    lines[2] = lines[2].rstrip("\r\n") + ",glued,on\r\n"
-    path.write_text("".join(lines))
-    for reader in (read_result_rows, lambda p: finished_keys(p, KEY)):
-        with pytest.raises(ValueError, match=r"grid.csv:3: expected \d+ fields \(the header's\), found \d+"):
-            reader(path)
-    out = subprocess.run([sys.executable, "scripts/plot_results.py", "--csv", str(path), "--out", str(tmp_path / "p.png")],
-                         capture_output=True, text=True, cwd=os.path.dirname(os.path.dirname(__file__)), timeout=300)
-    assert out.returncode == 2 and "grid.csv:3: expected" in out.stderr and "Traceback" not in out.stderr
-
-
-# ---------------------------------------------------------------------------------------------- script options
-@pytest.mark.parametrize("args, message", [
-    (["scripts/benchmark.py", "--episodes", "-3"], "argument --episodes: expected an integer >= 1, found -3"),
-    (["scripts/benchmark.py", "--seeds", "5-1"], "argument --seeds: expected increasing seed ranges"),
-    (["scripts/benchmark.py", "--algos", "nope"], "argument --algos: invalid choice: 'nope'"),
-    (["scripts/run_curves.py", "--envs", "Hopper-v4", "--updates", "0", "--csv", "x.csv"], "argument --updates: expected an integer >= 1"),
-    (["scripts/compare.py", "--seed", "abc"], "argument --seed: expected an integer seed >= 0, found 'abc'"),
-    (["scripts/bench_speed.py", "--steps", "1.5"], "argument --steps: expected an integer >= 1, found '1.5'"),
-    (["scripts/generate_expert_data.py", "--env", "CartPole-v1", "--n-trajectories", "2", "--min-return", "nan"],
-     "argument --min-return: expected a finite number, found 'nan'"),
-])
-def test_script_options_are_checked_with_one_line_naming_them(args, message, tmp_path):
-    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run([sys.executable, os.path.join(repo, args[0]), *args[1:]], capture_output=True, text=True,
-                         cwd=tmp_path, timeout=300)
-    assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr, out.stderr[-2000:]
-    assert not (tmp_path / "x.csv").exists()
-
-
-def test_every_tried_fault_gives_a_clean_error():
-    """scripts/robustness_report.py's cases: each a clean error naming its field, none unclear or silent."""
-    from sb3_mbil.robustness import run_cases, table
-
-    cases = run_cases()
-    assert len(cases) > 200
-    assert all(c.outcome == "clean" for c in cases), table(cases)
-
-
 # ---------------------------------------------------------------------------------------------- round three
 def test_values_of_the_wrong_type_are_refused_or_kept_exactly(demo, tmp_path):
     with pytest.raises(ValueError, match="episode_return: expected a number"):
@@ -405,41 +330,6 @@ def test_images_channels_last_are_explained_and_exported_in_the_envs_layout(tmp_
     session = ort.InferenceSession(str(export_policy(model, tmp_path / "p.onnx")))
     onnx_actions = session.run(None, {"observation": hwc.reshape(21, -1).astype(np.float32)})[0]
     np.testing.assert_array_equal(onnx_actions, model.predict(hwc, deterministic=True)[0])
-
-
-def test_results_files_are_parsed_as_csv_records_and_appended_whole(tmp_path, monkeypatch):
-    from sb3_mbil.benchmark import results
-    from sb3_mbil.benchmark.results import append_rows, drop_incomplete_last_line, finished_keys, read_result_rows
-
-    path, columns = tmp_path / "r.csv", ["algo", "seed", "settings"]
-    append_rows(path, [{"algo": "bc", "seed": 0, "settings": "a\nb"}], columns)  # a quoted field with a newline
-    append_rows(path, [{"algo": "bc", "seed": 1, "settings": "c"}], columns)
-    assert drop_incomplete_last_line(path) is None
-    assert [r["settings"] for r in read_result_rows(path)] == ["a\nb", "c"]
-    with open(path, "a") as f:
-        f.write('bc,2,"unterminated\nquote')  # an interrupted append inside a quoted field
-    assert drop_incomplete_last_line(path) is not None
-    assert finished_keys(path, ("algo", "seed")) == {("bc", "0"), ("bc", "1")}
-    with open(path, "a") as f:
-        f.write("bc,3,x\x00y\n")  # a NUL byte in the last record: dropped, its run redone
-    drop_incomplete_last_line(path)
-    assert finished_keys(path, ("algo", "seed")) == {("bc", "0"), ("bc", "1")}
-    text = path.read_text()
-    path.write_text(text.replace("c\n", "c\x00\n") + "bc,4,z\n")  # a NUL byte inside the file: refused, with the line
-    with pytest.raises(ValueError, match=r"r.csv:4: expected text, found a NUL byte"):
-        read_result_rows(path)
-    path.write_text(text)
-
-    real_fsync = os.fsync
-
-    def full_disk(fd):
-        raise OSError(28, "No space left on device")
-
-    monkeypatch.setattr(results.os, "fsync", full_disk)
-    with pytest.raises(OSError, match="No space left"):
-        append_rows(path, [{"algo": "bc", "seed": 5 + i, "settings": ""} for i in range(60)], columns)
-    monkeypatch.setattr(results.os, "fsync", real_fsync)
-    assert path.read_text() == text  # none of the 60 rows: the run is redone whole
 
 
 def test_the_saved_optimiser_settles_the_weight_decay_of_a_zip(demo, tmp_path):

@@ -92,16 +92,6 @@ def test_settings_strings_are_parsed_never_run(tmp_path):
     assert not marker.exists()
 
 
-def test_the_harness_never_runs_a_policy_kwargs_override(tmp_path):
-    from sb3_mbil.benchmark.grid import tuned_settings
-
-    marker = tmp_path / "ran"
-    with pytest.raises(ValueError, match="policy_kwargs: expected"):
-        tuned_settings("bc", "CartPole-v1", {"policy_kwargs": f"dict(a=open({str(marker)!r}, 'w'))"})
-    assert not marker.exists()
-    assert tuned_settings("bc", "Hopper-v4")["policy_kwargs"]["net_arch"] == [256, 256]
-
-
 @pytest.mark.parametrize("org, trust, expected", [("sb3", None, "True"), ("someone-else", None, None),
                                                   ("someone-else", True, "True"), ("sb3", False, None)])
 def test_remote_code_is_trusted_for_the_rl_zoo_only_unless_the_caller_says(monkeypatch, org, trust, expected):

@@ -106,7 +106,7 @@ def test_every_sampler_gives_constructor_arguments(algo):
     for seed in range(3):
         trial = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=seed)).ask()
         params = zoo.SAMPLERS[algo](trial, 2, 1, {})
-        from sb3_mbil.robustness import native_env
+        from sb3_mbil.experts.controllers import native_env
 
         ALGORITHMS[algo]("MlpPolicy", gym.make(native_env(ALGORITHMS[algo])), **params)
 

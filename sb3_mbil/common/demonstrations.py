@@ -28,6 +28,8 @@ from typing import Any, Union
 import numpy as np
 from gymnasium import spaces
 
+from sb3_mbil.common.files import atomic_write
+from sb3_mbil.common.validation import check_int
 from sb3_mbil.experts.specs import EXPERTS  # the first pools' experts
 
 FORMAT_VERSION = 2  # 2: optional final actions of trajectory pieces
@@ -201,8 +203,6 @@ class Demonstrations:
         (s_{t+1}, a_{t+1}) as a labelled pair, i.e. two steps per piece (a control: the labels the successors give
         MBIL, handed to a method that learns from (s, a) pairs only).
         """
-        from sb3_mbil.common.validation import check_int
-
         every = check_int("every", every, low=1)
         seed = check_int("seed", seed, low=0, high=2**64 - 1)
         if offset == "random":
@@ -375,8 +375,6 @@ class Demonstrations:
             arrays["format_version"] = np.array(2)
             arrays["has_final_action"] = np.array([t.final_action is not None for t in self.trajectories], dtype=bool)
             arrays["final_actions"] = np.stack(finals)
-        from sb3_mbil.common.files import atomic_write
-
         with atomic_write(path) as tmp, open(tmp, "wb") as f:
             np.savez_compressed(f, **arrays)
         return path

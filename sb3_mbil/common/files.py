@@ -69,3 +69,9 @@ def atomic_write(target: str | os.PathLike) -> Iterator[Path]:
     finally:
         if tmp.is_symlink() or tmp.exists():
             tmp.unlink()
+
+
+def write_text(path: str | os.PathLike, text: str) -> None:
+    """Write a whole text file or nothing (a temporary file in the same folder, then renamed)."""
+    with atomic_write(path) as tmp:
+        tmp.write_text(text)

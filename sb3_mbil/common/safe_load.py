@@ -23,6 +23,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sb3_mbil.common.settings import ACTIVATIONS, OPTIMIZERS
+from sb3_mbil.version import __version__
 
 #: the zip member with the plain-JSON description written by ``save``
 MEMBER = "sb3_mbil.json"
@@ -77,8 +78,6 @@ def _plain(value: Any) -> Any:
 
 def describe(model) -> dict:
     """The plain-JSON description of the entries SB3 would pickle (written into the zip by ``save``)."""
-    from sb3_mbil.version import __version__
-
     policy = next((name for name, cls in type(model).policy_aliases.items() if cls is model.policy_class), None)
     try:
         policy_kwargs = _plain(model.policy_kwargs)
@@ -192,8 +191,6 @@ def safe_custom_objects(cls, raw: bytes, where: str) -> dict[str, Any]:
 def check_version(raw: bytes, where: str) -> None:
     """Warn when the zip was written by a newer sb3_mbil than this one."""
     from packaging.version import InvalidVersion, Version
-
-    from sb3_mbil.version import __version__
 
     try:
         with zipfile.ZipFile(io.BytesIO(raw)) as archive:

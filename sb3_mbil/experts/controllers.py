@@ -10,7 +10,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
+from sb3_mbil.common.demonstrations import Demonstrations, Trajectory, load_demonstrations
 
 
 def pendulum_controller(obs: np.ndarray) -> np.ndarray:
@@ -46,3 +46,15 @@ def controller_demonstrations(env_id: str, n_trajectories: int, seed: int = 0) -
     env.close()
     return Demonstrations(trajs, {"env_id": env_id, "source": f"controller:{controller.__name__}",
                                   "seed": seed, "n_trajectories": n_trajectories})
+
+
+def native_env(algo: type) -> str:
+    """The env the checks run an algorithm on: CartPole-v1 when it takes Discrete actions, else Pendulum-v1."""
+    return "CartPole-v1" if gym.spaces.Discrete in algo.supported_action_spaces else "Pendulum-v1"
+
+
+def native_demo(algo: type, n_trajectories: int = 1):
+    """Expert data for :func:`native_env`: the shipped CartPole-v1 pool, or the hand-written Pendulum-v1 controller."""
+    if native_env(algo) == "CartPole-v1":
+        return load_demonstrations("CartPole-v1").sample(n_trajectories, seed=0)
+    return controller_demonstrations("Pendulum-v1", n_trajectories, seed=0)

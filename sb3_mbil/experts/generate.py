@@ -38,6 +38,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
 from sb3_mbil.common.files import atomic_write
 from sb3_mbil.experts.specs import EXPERTS, OTHER_SPECS, SECOND_EXPERTS, ExpertSpec, expert_spec  # noqa: F401
+from sb3_mbil.version import __version__
 
 logger = logging.getLogger("sb3_mbil.experts")
 
@@ -729,8 +730,6 @@ def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub
     returns, lengths = demos.episode_returns, demos.episode_lengths
     import gymnasium
     import stable_baselines3
-
-    from sb3_mbil.version import __version__
 
     demos.metadata.update({
         "env_id": env_id,

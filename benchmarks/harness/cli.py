@@ -1,0 +1,79 @@
+"""The harness's own command-line helpers (the generic ones live in :mod:`sb3_mbil.common.cli` and are
+re-exported here): ``--overrides`` checked against each algorithm's constructor, results files checked
+appendable before any training, and reports printed and written whole."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import Any
+
+from sb3_mbil.common.cli import (  # noqa: F401  (re-exported for the harness's scripts)
+    EXTRA_OF, check_output, finite_float, fraction, is_committed, parse_seeds, positive_int, run, seed,
+)
+
+
+def overrides_json(text: str) -> dict[str, dict[str, Any]]:
+    """``--overrides``: a JSON object of settings per algorithm, ``{"mbil": {"alpha": 0.1}}``; each checked against
+    the algorithm's constructor (one line naming a misspelt key)."""
+    import json
+
+    from sb3_mbil import ALGORITHMS
+    from benchmarks.harness.grid import check_overrides
+
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise argparse.ArgumentTypeError(f"expected JSON, found {text!r} ({e.msg})") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f'expected an object {{"algo": {{settings}}}}, found {text!r}')
+    for algo, settings in value.items():
+        if algo not in ALGORITHMS:
+            raise argparse.ArgumentTypeError(f"expected algorithms among {sorted(ALGORITHMS)}, found {algo!r}")
+        try:
+            check_overrides(algo, settings)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return value
+
+
+def check_appendable(path: str | os.PathLike, option: str) -> None:
+    """Refuse, before any training, a results file that cannot be appended to (a read-only file or file system, a
+    folder that cannot be created): one line naming the option, instead of a traceback after the runs."""
+    path = Path(path)
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if path.exists():
+        ok = path.is_file() and os.access(path, os.W_OK) and os.access(path.parent, os.W_OK)
+    else:
+        ok = folder.is_dir() and os.access(folder, os.W_OK)
+    if ok and path.exists():
+        try:  # a read-only mount passes os.access for root: try to open it for appending
+            with open(path, "a"):
+                pass
+        except OSError:
+            ok = False
+    elif ok:
+        try:
+            import tempfile
+
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError:
+            ok = False
+    if not ok:
+        raise ValueError(f"{option}: expected a results file that can be appended to, found {path} not writable "
+                         "(a read-only file, folder or file system)")
+
+
+def emit(text: str, markdown: str | os.PathLike | None = None) -> None:
+    """Print a script's report, and write it whole to ``markdown`` when given."""
+    print(text)
+    if markdown:
+        from benchmarks.harness.results import write_text
+
+        write_text(markdown, text + "\n")
+
+
