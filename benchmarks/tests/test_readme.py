@@ -1,0 +1,28 @@
+"""The README's tables are generated from the result files (python -m benchmarks.readme --overwrite)."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from benchmarks.readme import MARKERS, readme_blocks, replace_block
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_the_readme_tables_are_the_result_files_numbers(monkeypatch):
+    monkeypatch.chdir(REPO)
+    blocks, settings = readme_blocks()
+    readme = (REPO / "README.md").read_text()
+    for name, body in blocks.items():
+        start, end = MARKERS[name]
+        found = re.search(re.escape(start) + r"\n(.*?)\n" + re.escape(end), readme, re.S)
+        assert found is not None, f"README: the markers of {name} are missing"
+        assert found.group(1) == body, f"README's {name} table is stale: run python -m benchmarks.readme --overwrite"
+    assert len(blocks["results"].splitlines()) <= 17  # header, rule and at most 15 lines
+    assert {s.demonstrations for s in settings} >= {"deterministic"}
+
+
+def test_a_block_without_its_markers_is_refused():
+    with pytest.raises(ValueError, match="markers"):
+        replace_block("no markers here", "results", "| x |")
