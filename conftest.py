@@ -1,5 +1,5 @@
 """Shared by the library's tests (tests/) and the harness's (benchmarks/tests/): fixtures, tests/ helpers on the
-path, and the checkout on the path of every subprocess (the harness runs as ``python -m benchmarks.<script>``)."""
+path (the harness is the checkout's ``benchmarks`` package)."""
 
 import os
 import sys
@@ -12,7 +12,6 @@ import torch as th
 _REPO = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(_REPO, "tests"))
 sys.path.insert(0, _REPO)
-os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (_REPO, os.environ.get("PYTHONPATH", "")) if p)
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 #: fixtures of tests/ helpers that both suites use

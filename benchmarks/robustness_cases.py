@@ -98,7 +98,7 @@ def round_three(workdir: Path, demo, fast, saved) -> list:
     def trust_for_strangers():
         import huggingface_sb3
 
-        from sb3_mbil.experts.generate import load_hub_expert
+        from sb3_mbil.experts.agents import load_hub_expert
 
         seen, real = {}, huggingface_sb3.load_from_hub
 

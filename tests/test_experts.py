@@ -251,7 +251,7 @@ def test_sampled_actions_pool(tmp_path):
 
 @pytest.mark.parametrize("level", [0.0, 0.2, 1.0])
 def test_noisy_actions_follow_their_definition(level):
-    from sb3_mbil.experts.generate import noisy_actions
+    from sb3_mbil.experts.agents import noisy_actions
 
     rng = np.random.default_rng(0)
     expert = np.full(20_000, 2, dtype=np.int64)
@@ -333,23 +333,23 @@ def test_late_hyperparameters_take_over_at_their_checkpoints(tmp_path, monkeypat
     runs does not take the first run's model for the end."""
     import json
 
-    from sb3_mbil.experts import generate
+    from sb3_mbil.experts import zoo_training
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     kwargs = dict(seed=0, n_timesteps=600, save_freq=200, n_evaluations=3)
     switches = ((200, {"learning_rate": 1e-5}), (400, {"gamma": 0.9}))
     with pytest.raises(ValueError, match="late_hyperparams: expected step counts that are multiples of save_freq"):
-        generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=((150, {"learning_rate": 1e-5}),), **kwargs)
-    original = generate._run_logged
-    monkeypatch.setattr(generate, "_run_logged", lambda *a: (original(*a), exec("raise KeyboardInterrupt"))[0])
+        zoo_training.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=((150, {"learning_rate": 1e-5}),), **kwargs)
+    original = zoo_training._run_logged
+    monkeypatch.setattr(zoo_training, "_run_logged", lambda *a: (original(*a), exec("raise KeyboardInterrupt"))[0])
     with pytest.raises(KeyboardInterrupt):  # the session ends right after the first run
-        generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
-    monkeypatch.setattr(generate, "_run_logged", original)
+        zoo_training.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
+    monkeypatch.setattr(zoo_training, "_run_logged", original)
     folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n600"
     run1, run2, run3 = (folder / "dqn" / f"CartPole-v1_{i}" for i in (1, 2, 3))
     assert (run1 / "CartPole-v1.zip").is_file() and (run1 / "rl_model_replay_buffer_200_steps.pkl").is_file()
     assert not run2.exists()
-    generate.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
+    zoo_training.train_zoo_expert("CartPole-v1", "dqn", late_hyperparams=switches, **kwargs)
     progress = json.loads((folder / "progress.json").read_text())
     assert progress["steps_before"] == {"CartPole-v1_1": 0, "CartPole-v1_2": 200, "CartPole-v1_3": 400}
     first, second, third = (DQN.load(run / "CartPole-v1.zip") for run in (run1, run2, run3))
@@ -364,11 +364,11 @@ def test_a_reward_set_from_the_start_trains_on_it_and_evaluates_on_the_env_as_it
     too)."""
     from stable_baselines3.common.save_util import load_from_pkl
 
-    from sb3_mbil.experts import generate
+    from sb3_mbil.experts import zoo_training
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     # CartPole-v1 pays 1 a step; Sutton and Barto's reward pays 0, and -1 on the step that ends an episode
-    generate.train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2,
+    zoo_training.train_zoo_expert("CartPole-v1", "dqn", seed=0, n_timesteps=400, save_freq=200, n_evaluations=2,
                               late_hyperparams=((0, {"env_kwargs": {"sutton_barto_reward": True}}),))
     run = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n400" / "dqn" / "CartPole-v1_1"
     rewards = load_from_pkl(run / "rl_model_replay_buffer_400_steps.pkl").rewards[:400, 0]
@@ -503,21 +503,21 @@ def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monk
     of 100): the run continues from its checkpoint on the remaining budget instead of starting a new seed."""
     import json
 
-    from sb3_mbil.experts import generate
+    from sb3_mbil.experts import zoo_training
 
     monkeypatch.setenv("SB3_MBIL_CACHE", str(tmp_path))
     kwargs = dict(seed=0, n_timesteps=2000, save_freq=200, n_evaluations=10, stop_at_return=-1e9)
-    generate.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
+    zoo_training.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
     folder = tmp_path / "zoo" / "dqn-CartPole-v1-seed0-n2000"
     assert (folder / "dqn" / "CartPole-v1_1" / "CartPole-v1.zip").is_file()
-    assert generate.refuse_zoo_run("CartPole-v1", "dqn", 0, 2000)
-    expert = generate.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
+    assert zoo_training.refuse_zoo_run("CartPole-v1", "dqn", 0, 2000)
+    expert = zoo_training.train_zoo_expert("CartPole-v1", "dqn", **kwargs)
     progress = json.loads((folder / "progress.json").read_text())
     assert progress["refused"] == ["CartPole-v1_1"] and progress["steps_before"]["CartPole-v1_2"] == 200
     assert (folder / "dqn" / "CartPole-v1_2" / "CartPole-v1.zip").is_file() and expert.source == "zoo:dqn seed=0"
     assert "Loading pretrained agent" in folder.with_suffix(".log").read_text()
     # a run that used its whole budget cannot continue: the caller moves to the next seed
-    generate.train_zoo_expert("CartPole-v1", "dqn", seed=1, n_timesteps=200, save_freq=100, n_evaluations=2)
-    assert not generate.refuse_zoo_run("CartPole-v1", "dqn", 1, 200)
+    zoo_training.train_zoo_expert("CartPole-v1", "dqn", seed=1, n_timesteps=200, save_freq=100, n_evaluations=2)
+    assert not zoo_training.refuse_zoo_run("CartPole-v1", "dqn", 1, 200)
 
 

@@ -97,7 +97,7 @@ def test_settings_strings_are_parsed_never_run(tmp_path):
 def test_remote_code_is_trusted_for_the_rl_zoo_only_unless_the_caller_says(monkeypatch, org, trust, expected):
     import huggingface_sb3
 
-    from sb3_mbil.experts.generate import load_hub_expert
+    from sb3_mbil.experts.agents import load_hub_expert
 
     seen = {}
 

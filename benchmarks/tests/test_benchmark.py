@@ -11,6 +11,7 @@ import pytest
 from benchmarks.harness import RESULT_COLUMNS, Run, make_grid
 from benchmarks.harness.report import aggregate, plot, read_rows, table
 from benchmarks.harness.runner import pending, run_local, run_ray
+from subprocess_env import harness_env
 
 TINY_FLOWS = {"flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]}
 TINY = {"mbil": {"n_timesteps": 20, "flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]},
@@ -563,11 +564,11 @@ def test_curve_summary_tags_pair_two_files_with_the_same_variant_names(tmp_path)
                 w.writerow({"algo": "bc", "env": "CartPole-v1", "seed": s, "gradient_step": 500, "mean_return": base + s,
                             "n_episodes": 1, "n_trajectories": 1, "settings": "[('algo', 'bc')]", "commit": "abc"})
     cmd = [sys.executable, "-m", "benchmarks.curve_summary", "new.csv", "old.csv", "--last", "1"]
-    out = subprocess.run(cmd + ["--tags", "new", "old", "--paired-against", "bc@old"], cwd=tmp_path,
+    out = subprocess.run(cmd + ["--tags", "new", "old", "--paired-against", "bc@old"], cwd=tmp_path, env=harness_env(),
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "| CartPole-v1 | bc@new | 3 | 301 | 200 +- 0 | [+200, +200] | 0 of 3 |" in out.stdout
-    out = subprocess.run(cmd + ["--tags", "new"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    out = subprocess.run(cmd + ["--tags", "new"], cwd=tmp_path, env=harness_env(), capture_output=True, text=True, timeout=300)
     assert out.returncode != 0 and "--tags: expected one tag per CSV (2), found 1" in out.stderr
 
 
@@ -607,7 +608,7 @@ def test_fall_report_finds_where_a_clone_leaves_the_expert_states(tmp_path):
     out = tmp_path / "falls.csv"
     cmd = [sys.executable, "-m", "benchmarks.fall_report", "--envs", "Hopper-v4", "--seeds", "100", "--updates", "20",
            "--episodes", "2", "--csv", str(out)]
-    first = subprocess.run(cmd, capture_output=True, text=True)
+    first = subprocess.run(cmd, capture_output=True, text=True, env=harness_env())
     assert first.returncode == 0, first.stderr
     rows = rows_of(out)
     assert len(rows) == 2 and {r["episode"] for r in rows} == {"0", "1"}

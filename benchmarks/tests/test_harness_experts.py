@@ -5,6 +5,7 @@ import subprocess
 import sys
 import gymnasium as gym
 import numpy as np
+from subprocess_env import harness_env
 
 
 def test_termination_causes_name_the_failed_health_check():
@@ -46,7 +47,7 @@ def test_expert_falls_command_line_counts_the_causes(tmp_path):
     SAC("MlpPolicy", "Hopper-v4", seed=0, device="cpu").save(tmp_path / "hopper.zip")
     out = subprocess.run([sys.executable, "-m", "benchmarks.expert_falls", "--env", "Hopper-v4", "--model",
                           str(tmp_path / "hopper.zip"), "--episodes", "3"], capture_output=True, text=True,
-                         cwd=os.path.dirname(os.path.dirname(__file__)))
+                         cwd=os.path.dirname(os.path.dirname(__file__)), env=harness_env())
     assert out.returncode == 0, out.stderr[-2000:]
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert sum(report["causes"].values()) == 3 == len(report["lengths"]) and "time limit" not in report["causes"]

@@ -6,6 +6,7 @@ import subprocess
 import sys
 import pytest
 from pathlib import Path
+from subprocess_env import harness_env
 
 
 # ---------------------------------------------------------------------------------------------- results CSV
@@ -51,7 +52,7 @@ def test_a_malformed_middle_line_is_refused_with_path_and_line(tmp_path):
         with pytest.raises(ValueError, match=r"grid.csv:3: expected \d+ fields \(the header's\), found \d+"):
             reader(path)
     out = subprocess.run([sys.executable, "-m", "benchmarks.plot_results", "--csv", str(path), "--out", str(tmp_path / "p.png")],
-                         capture_output=True, text=True, cwd=os.path.dirname(os.path.dirname(__file__)), timeout=300)
+                         capture_output=True, text=True, env=harness_env(), timeout=300)
     assert out.returncode == 2 and "grid.csv:3: expected" in out.stderr and "Traceback" not in out.stderr
 
 
@@ -69,8 +70,8 @@ def test_a_malformed_middle_line_is_refused_with_path_and_line(tmp_path):
 def test_script_options_are_checked_with_one_line_naming_them(args, message, tmp_path):
     repo = Path(__file__).resolve().parents[2]
     command = args if args[0] == "-m" else [str(repo / args[0]), *args[1:]]
-    out = subprocess.run([sys.executable, *command], capture_output=True, text=True,
-                         cwd=tmp_path, timeout=300)
+    out = subprocess.run([sys.executable, *command], capture_output=True, text=True, cwd=tmp_path, env=harness_env(),
+                         timeout=300)
     assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr, out.stderr[-2000:]
     assert not (tmp_path / "x.csv").exists()
 

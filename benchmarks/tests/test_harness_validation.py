@@ -1,6 +1,7 @@
 """Held-out validation in the harness: learning curves record the held-out loss; the weight-decay diagnostic."""
 
 import csv
+from subprocess_env import harness_env
 
 
 def test_learning_curves_record_the_held_out_loss(tmp_path):
@@ -11,17 +12,17 @@ def test_learning_curves_record_the_held_out_loss(tmp_path):
     out = subprocess.run([sys.executable, "-m", "benchmarks.run_curves", "--local", "--variants",
                           '{"bc": ["bc", {}]}', "--envs", "CartPole-v1", "--seeds", "0-1", "--updates", "40",
                           "--eval-every", "20", "--episodes", "2", "--holdout", "0.2", "--csv", "c.csv"],
-                         capture_output=True, text=True, cwd=tmp_path, timeout=600)
+                         capture_output=True, text=True, cwd=tmp_path, env=harness_env(), timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     with open(tmp_path / "c.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 4 and all(float(r["heldout_bc_loss"]) > 0 for r in rows)
     assert "('holdout_fraction', 0.2)" in rows[0]["settings"]
     summary = subprocess.run([sys.executable, "-m", "benchmarks.curve_summary", "c.csv", "--heldout"],
-                             capture_output=True, text=True, cwd=tmp_path, timeout=300)
+                             capture_output=True, text=True, cwd=tmp_path, env=harness_env(), timeout=300)
     assert summary.returncode == 0 and "return at the lowest held-out loss" in summary.stdout, summary.stderr[-2000:]
     bad = subprocess.run([sys.executable, "-m", "benchmarks.run_curves", "--envs", "CartPole-v1", "--updates", "5",
-                          "--holdout", "1.5", "--csv", "d.csv"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+                          "--holdout", "1.5", "--csv", "d.csv"], capture_output=True, text=True, cwd=tmp_path, env=harness_env(), timeout=300)
     assert bad.returncode == 2 and "argument --holdout: expected a number in (0, 1)" in bad.stderr
 
 

@@ -12,6 +12,10 @@ From a set of trajectories we build, never across an episode boundary,
 
 Files are compressed ``.npz`` archives read with ``allow_pickle=False``
 and written to a temporary file that is then renamed (whole or not at all).
+
+Over 400 lines on purpose: :class:`Demonstrations` is the package's one data type, and its constructors and
+converters (files, Minari, imitation, pairs, transitions, tuples, sampling) are its methods so that a user finds
+them on the object; the shipped-pool lookup at the end is the only code outside it.
 """
 
 from __future__ import annotations

@@ -4,6 +4,10 @@ The learner never steps the environment: the env gives the spaces and is used
 for evaluation only. One gradient step is one timestep and one
 ``callback.on_step()``, so the progress bar, ``EvalCallback`` and
 ``CheckpointCallback`` work unchanged and count gradient steps.
+
+Over 400 lines on purpose: the base class is one contract (SB3's own ``base_class.py`` is longer): building from
+hyperparameters, the learn loop and its finite checks, the training random stream, and save/load with its checks
+are read together when an algorithm is added.
 """
 
 from __future__ import annotations

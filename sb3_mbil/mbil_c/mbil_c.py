@@ -23,10 +23,8 @@ D is the KL divergence for Discrete actions (categorical against categorical) an
 For Box actions P is by default anchored on the data (``anchor_to_data``): P's mean at the data is replaced by
 the observed a' (its std kept), and at a model state by a' + mean_P(s, a, s~') - mean_P(s, a, s').
 
-Defaults (from the tuning runs, seeds >= 100; the README has the numbers): ``alpha = beta = 1`` and
-``alpha_T = 0``. States drawn from T lowered the return on LunarLander-v3 and Hopper-v4 at every weight and
-spread tried, so by default T is neither fitted nor used, and MBIL-C is BC plus the balance divergence at the
-data: with these defaults it is no better than BC on any setting measured so far.
+Defaults: ``alpha = beta = 1`` and ``alpha_T = 0``, so by default T is neither fitted nor used and MBIL-C is BC
+plus the balance divergence at the data (why, with the tuning runs behind it: docs/method.md).
 
 T_psi^kappa is the fitted Gaussian T with its standard deviation multiplied by kappa
 (``model_state_scale``). P_eta and T_psi are fitted once by maximum likelihood (Gaussian input noise,
@@ -68,7 +66,7 @@ class MBILC(BalanceModels, OfflineAlgorithm):
     :param expert_data: demonstrations (see :func:`sb3_mbil.as_demonstrations`); not saved with the model
     :param alpha: weight of the balance term at the data's next states
     :param alpha_model: weight of the balance term at next states drawn from T (``alpha_T``; 0 by default, where T is
-        not fitted: measured on the tuning seeds, these states cost return, see the README)
+        not fitted)
     :param beta: weight of the behaviour-cloning term
     :param learning_rate: policy Adam learning rate (constant or schedule)
     :param batch_size: minibatch size (expert states; as many model states)
