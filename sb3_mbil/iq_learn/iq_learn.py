@@ -174,16 +174,15 @@ class IQLearn(OfflineAlgorithm):
         self._record("train/q_random", q_random.detach().mean())
         self._record("train/v_expert", v.detach().mean())
 
-        if discrete:  # Q is the policy's logits: one optimiser
-            self.policy.optimizer.zero_grad(set_to_none=True)
-            critic_loss.backward()
-            self.policy.optimizer.step()
-            return
-
-        self.critic.optimizer.zero_grad(set_to_none=True)
+        critic_optimizer = self.policy.optimizer if discrete else self.critic.optimizer  # Discrete: Q is pi's logits
+        critic_optimizer.zero_grad(set_to_none=True)
         critic_loss.backward()
-        self.critic.optimizer.step()
+        critic_optimizer.step()
+        if not discrete:
+            self._actor_step(batch)
 
+    def _actor_step(self, batch) -> None:
+        """Box: the SAC-style actor on expert states, then the target critic's Polyak update."""
         # The SAC-style actor on expert states: min E[t log pi(a~ | s) - Q(s, a~)].
         value, log_pi, q_pi = self._box_value(self.critic, batch.observations)
         actor_loss = (self.temperature * log_pi - q_pi).mean()
