@@ -43,7 +43,7 @@ def measure_speed(env_id: str, expert_data: ExpertData, steps: int = 2000, repea
     report = getattr(model, "flow_report", None)
     if report is not None:  # MBIL: where the fitting time goes (CPU seconds of each model's fit)
         out.update(n_tuples=report["n_tuples"],
-                   transition_fit_cpu_seconds=round(report["transition"]["seconds"], 2),
+                   transition_fit_cpu_seconds=round(report["transition"]["seconds"], 2) if report["transition"] else 0.0,
                    next_action_fit_cpu_seconds=round(report["next_action"]["seconds"], 2))
     out.update(
         algo_seconds=round(algo_s, 3),

@@ -132,16 +132,22 @@ def test_same_seed_same_result(algo, env_id, data):
 
 @pytest.mark.parametrize("env_id", ENVS)
 def test_transition_fit_never_changes_the_policy(env_id, data):
-    # T cancels from the balance target and its fit draws its own random numbers: how T is
-    # fitted changes T, never P(a' | s, a, s'), the target or the policy.
-    a = make(MBIL, env_id, data[env_id], transition_noise_grid=(0.1,)).learn(40)
-    b = make(MBIL, env_id, data[env_id], transition_noise_grid=(0.01, 0.3), transition_refit=True).learn(40)
-    pa, pb = params(a), params(b)
-    assert_same_params({k: v for k, v in pa.items() if not k.startswith("flows.transition.")},
-                       {k: v for k, v in pb.items() if not k.startswith("flows.transition.")})
+    # T cancels from the balance target and its fit draws its own random numbers: whether and how T is
+    # fitted changes T, never P(a' | s, a, s'), the target or the policy. By default it is not fitted.
+    a = make(MBIL, env_id, data[env_id], fit_transition=True, transition_noise_grid=(0.1,)).learn(40)
+    b = make(MBIL, env_id, data[env_id], fit_transition=True, transition_noise_grid=(0.01, 0.3),
+             transition_refit=True).learn(40)
+    c = make(MBIL, env_id, data[env_id]).learn(40)
+    pa, pb, pc = params(a), params(b), params(c)
+    not_t = [k for k in pa if not k.startswith("flows.transition.")]
+    assert_same_params({k: pa[k] for k in not_t}, {k: pb[k] for k in not_t})
+    assert_same_params({k: pa[k] for k in not_t}, {k: pc[k] for k in not_t})
     assert any(not th.equal(pa[k], pb[k]) for k in pa if k.startswith("flows.transition."))
     assert a.flow_report["transition"]["candidates"].keys() == {"0.1"}
     assert b.flow_report["transition"]["candidates"].keys() == {"0.01", "0.3"}
+    assert c.flow_report["transition"] is None and c.flow_report["transition_heldout_ll"] is None
+    assert c.flow_report["fit_seconds"] < a.flow_report["fit_seconds"]
+    assert c.diagnostics()["transition_heldout_ll"] is None and np.isfinite(c.diagnostics()["target_mean"])
 
 
 def test_tuple_targets_are_the_cached_balance_targets(data):
@@ -213,8 +219,8 @@ def test_logged_values(algo, data, tmp_path):
     elif algo is not DSFN:  # DSFN's warm start is BC; its other terms appear in later phases
         assert "train/bc_loss" in keys or "train/classification_loss" in keys
     if algo is MBIL:
-        assert {"train/balance_loss", "train/residual_mean", "flows/transition_heldout_ll", "flows/p_heldout_ll"} <= keys
-        assert np.isfinite(float(rows[0]["flows/p_heldout_ll"]))
+        assert {"train/balance_loss", "train/residual_mean", "flows/fit_seconds", "flows/next_action_noise"} <= keys
+        assert "flows/transition_heldout_ll" not in keys  # T is not fitted by default (it cancels from the target)
 
 
 def test_alpha_beta_variants(data):

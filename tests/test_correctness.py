@@ -26,7 +26,8 @@ def _tensor(x):
 @pytest.fixture(scope="module", params=[LinearGaussianMDP, DiscreteActionMDP], ids=["box", "discrete"])
 def fitted(request):
     mdp = request.param()
-    model = MBIL("MlpPolicy", mdp.make_env(), expert_data=mdp.trajectories(30, 100, seed=0), alpha=1.0, beta=0.0, seed=0)
+    model = MBIL("MlpPolicy", mdp.make_env(), expert_data=mdp.trajectories(30, 100, seed=0), alpha=1.0, beta=0.0, seed=0,
+                 fit_transition=True)
     model.fit_flows()
     test = as_demonstrations(mdp.trajectories(20, 100, seed=1)).tuples()
     s, a, s2, a2 = (test[k] for k in ("observations", "actions", "next_observations", "next_actions"))

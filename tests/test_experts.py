@@ -179,7 +179,8 @@ def test_a_fresh_install_trains_mbil_on_three_lunarlander_trajectories():
     from sb3_mbil import MBIL
 
     demos = load_demonstrations("LunarLander-v3").sample(3, seed=0)
-    model = MBIL("MlpPolicy", "LunarLander-v3", expert_data=demos, seed=0, flow_max_steps=40, noise_grid=(0.1,))
+    model = MBIL("MlpPolicy", "LunarLander-v3", expert_data=demos, seed=0, flow_max_steps=40, noise_grid=(0.1,),
+                 fit_transition=True)
     model.learn(20)
     report = model.flow_report
     # the binary leg-contact dimensions must not make the flows' likelihood blow up

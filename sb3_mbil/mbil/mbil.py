@@ -31,6 +31,10 @@ from sb3_mbil.common.validation import check_bool, check_choice, check_int, chec
 from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
 
 
+def _rounded(value: float | None) -> float | None:
+    return None if value is None else round(value, 4)
+
+
 class MBIL(OfflineAlgorithm):
     """Markov Balance-based Imitation Learning.
 
@@ -57,11 +61,11 @@ class MBIL(OfflineAlgorithm):
     :param flow_patience: held-out evaluations without improvement before stopping
     :param noise_grid: Gaussian input-noise levels (standardised units) tried for P(a' | s, a, s');
         the held-out log-likelihood picks one
-    :param transition_noise_grid: the levels tried for T(s' | s, a) (``None``: ``noise_grid``). T
-        cancels from the balance target (log P - log T = log P(a' | s, a, s'), see
-        :mod:`sb3_mbil.mbil.policies`) and its fit draws its own random numbers, so this setting never
-        changes the policy; it sets the cost and quality of T's diagnostics (held-out
-        log-likelihoods, ``flows.log_t`` / ``flows.log_p``)
+    :param fit_transition: also fit T(s' | s, a) with the factored estimator, where T cancels from the balance
+        target (log P - log T = log P(a' | s, a, s'), see :mod:`sb3_mbil.mbil.policies`) and only its diagnostics
+        read it (the held-out log-likelihoods of T and of P, ``flows.log_t`` / ``flows.log_p``). Every fit draws
+        its own random numbers, so this setting never changes the policy. The joint estimator always fits T
+    :param transition_noise_grid: the levels tried for T(s' | s, a) when it is fitted (``None``: ``noise_grid``)
     :param transition_refit: refit T on all tuples after choosing its noise and step count (by
         default T keeps its fit on the training split, so its reported held-out log-likelihood is
         that of the saved T, at half the cost)
@@ -106,6 +110,7 @@ class MBIL(OfflineAlgorithm):
         flow_eval_every: int = 25,
         flow_patience: int = 10,
         noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
+        fit_transition: bool = False,
         transition_noise_grid: Sequence[float] | None = (0.03,),
         transition_refit: bool = False,
         validation_fraction: float = 0.2,
@@ -137,6 +142,7 @@ class MBIL(OfflineAlgorithm):
         self.flow_eval_every = flow_eval_every
         self.flow_patience = flow_patience
         self.noise_grid = noise_grid
+        self.fit_transition = fit_transition
         self.transition_noise_grid = transition_noise_grid
         self.transition_refit = transition_refit
         self.validation_fraction = validation_fraction
@@ -165,6 +171,7 @@ class MBIL(OfflineAlgorithm):
         if self.transition_noise_grid is not None:
             self.transition_noise_grid = check_levels("transition_noise_grid", self.transition_noise_grid)
         self.transition_refit = check_bool("transition_refit", self.transition_refit)
+        self.fit_transition = check_bool("fit_transition", self.fit_transition)
         self.flow_refit = check_bool("flow_refit", self.flow_refit)
         self.validation_fraction = check_real("validation_fraction", self.validation_fraction, low=0.0, high=1.0,
                                               low_open=True, high_open=True)
@@ -198,7 +205,7 @@ class MBIL(OfflineAlgorithm):
 
     # ------------------------------------------------------------------ flows
     def fit_flows(self) -> dict[str, Any]:
-        """Fit T(s' | s, a) and P(a' | s, a, s') on the expert tuples (maximum likelihood).
+        """Fit P(a' | s, a, s') (and T(s' | s, a) when it is used) on the expert tuples (maximum likelihood).
 
         Called by the first ``learn``; call it yourself to fit without training the policy.
         Returns (and keeps in ``self.flow_report``) the chosen noise levels, step counts and
@@ -218,16 +225,20 @@ class MBIL(OfflineAlgorithm):
         )
         s, a, s_next, a_next = tup
         joint = self.estimator == "joint"
+        with_t = joint or self.fit_transition  # T cancels from the factored target: fitted for diagnostics only
         if self.verbose >= 1:
             which = "P(s', a' | s, a)" if joint else "P(a' | s, a, s')"
-            print(f"MBIL: fitting T(s' | s, a) and {which} on {len(s)} expert tuples")
-        t_settings = common if joint else {  # T cancels from the factored target: a cheaper fit for diagnostics
-            **common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)}
-        fitted_t, report_t = fit_conditional_density(
-            self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx, **t_settings,
-            log=self._fit_log("T(s' | s, a)"),
-        )
-        self.flows.transition.load_state_dict(fitted_t.state_dict())
+            fitted = " and ".join([*(["T(s' | s, a)"] if with_t else []), which])
+            print(f"MBIL: fitting {fitted} on {len(s)} expert tuples")
+        report_t = None
+        if with_t:
+            t_settings = common if joint else {  # a cheaper fit for diagnostics
+                **common, "noise_grid": self.transition_noise_grid or self.noise_grid, "refit": bool(self.transition_refit)}
+            fitted_t, report_t = fit_conditional_density(
+                self.flows.make_transition, *self.flows.transition_inputs(s, a, s_next), train_idx, val_idx,
+                **t_settings, log=self._fit_log("T(s' | s, a)"),
+            )
+            self.flows.transition.load_state_dict(fitted_t.state_dict())
         if joint:  # the paper's literal estimator: one flow over (s', a')
             fitted_p, report_p = fit_conditional_density(
                 self.flows.make_joint, *self.flows.joint_inputs(s, a, s_next, a_next), train_idx, val_idx, **common,
@@ -242,15 +253,15 @@ class MBIL(OfflineAlgorithm):
             )
             self.flows.next_action.load_state_dict(fitted_p.state_dict())
             # log P = log T + log P(a' | s, a, s'), on the same held-out tuples
-            p_heldout_ll = report_t.heldout_ll + report_p.heldout_ll
+            p_heldout_ll = report_t.heldout_ll + report_p.heldout_ll if report_t is not None else None
         self.flows.fitted.fill_(True)
         self.flows.eval()
         self.flow_report = {
-            "transition": report_t.as_dict(),
+            "transition": report_t.as_dict() if report_t is not None else None,  # None: T not fitted
             "next_action": report_p.as_dict(),  # with estimator="joint": the joint flow P(s', a' | s, a)
             "p_heldout_ll": p_heldout_ll,
-            "transition_heldout_ll": report_t.heldout_ll,
-            "fit_seconds": report_t.seconds + report_p.seconds,
+            "transition_heldout_ll": report_t.heldout_ll if report_t is not None else None,
+            "fit_seconds": (report_t.seconds if report_t is not None else 0.0) + report_p.seconds,
             "n_tuples": len(s),
             "n_heldout": len(val_idx),
             "estimator": self.estimator,
@@ -340,8 +351,8 @@ class MBIL(OfflineAlgorithm):
         out = super().diagnostics()
         if self.flow_report:
             out.update(fit_seconds=self.flow_report["fit_seconds"], target_mean=round(float(self.tuple_targets().mean()), 4),
-                       p_heldout_ll=round(self.flow_report["p_heldout_ll"], 4),
-                       transition_heldout_ll=round(self.flow_report["transition_heldout_ll"], 4),
+                       p_heldout_ll=_rounded(self.flow_report["p_heldout_ll"]),
+                       transition_heldout_ll=_rounded(self.flow_report["transition_heldout_ll"]),
                        next_action_noise=self.flow_report["next_action"]["noise"])
         return out
 
@@ -352,8 +363,10 @@ class MBIL(OfflineAlgorithm):
         self.tuple_targets()
         if self.flow_report is not None:
             for key in ("p_heldout_ll", "transition_heldout_ll", "fit_seconds"):
-                self.logger.record(f"flows/{key}", self.flow_report[key])
-            self.logger.record("flows/transition_noise", self.flow_report["transition"]["noise"])
+                if self.flow_report[key] is not None:
+                    self.logger.record(f"flows/{key}", self.flow_report[key])
+            if self.flow_report["transition"] is not None:
+                self.logger.record("flows/transition_noise", self.flow_report["transition"]["noise"])
             self.logger.record("flows/next_action_noise", self.flow_report["next_action"]["noise"])
         self.logger.record("flows/target_mean", float(self.tuple_targets().mean()))
 
