@@ -15,7 +15,6 @@ the joint (s', a') for P and a separate flow for T, the target their difference.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -28,6 +27,7 @@ from sb3_mbil.common.flows import EVAL_CHUNK, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
+from sb3_mbil.mbil.diagnostics import balance_diagnostics
 from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
 
 
@@ -318,33 +318,7 @@ class MBIL(OfflineAlgorithm):
         bound (the clamp gives them no gradient there) and ``bc_mse`` the mean's squared error on the
         (s, a) pairs (the MSE behaviour-cloning term).
         """
-        tup = self.expert_tuples()
-        target = self.balance_target(*tup)
-        heads = self.policy.heads(tup.next_observations)
-        log_pi = self.policy.log_prob_from_heads(heads, tup.next_actions)
-        out: dict[str, Any] = {
-            "n_tuples": len(target),
-            "target_mean": float(target.mean()), "target_std": float(target.std()),
-            "target_min": float(target.min()), "target_max": float(target.max()),
-            "residual_mse": float((target - log_pi).pow(2).mean()),
-        }
-        if self.policy.discrete:
-            return out
-        mean, log_std = heads
-        d = mean.shape[1]
-        log_pi_max = -log_std.sum(1) - 0.5 * d * math.log(2 * math.pi)
-        lowest = -d * self.policy.log_std_bounds[1] - 0.5 * d * math.log(2 * math.pi)
-        pairs = self.expert_pairs()
-        bc_mean = self.policy.mean_action(pairs.observations)
-        out.update(
-            mean_shift_nats=float((log_pi_max - log_pi).mean()),
-            residual_mse_mean_on_action=float((target - log_pi_max).pow(2).mean()),
-            unreachable_targets=int((target < lowest).sum()),
-            log_std_at_bound=float(((log_std <= self.policy.log_std_bounds[0] + 1e-3)
-                                    | (log_std >= self.policy.log_std_bounds[1] - 1e-3)).float().mean()),
-            bc_mse=float((bc_mean - pairs.actions.view_as(bc_mean)).pow(2).mean()),
-        )
-        return out
+        return balance_diagnostics(self)
 
     def diagnostics(self) -> dict[str, Any]:
         """The flows' fit: its seconds, the mean balance target, held-out log-likelihoods and P's chosen noise."""
