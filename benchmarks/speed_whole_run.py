@@ -1,6 +1,7 @@
 """Whole runs against BC's: each algorithm's 10 000-update run with its zoo settings on N trajectories of an env's
 shipped pool, fit included (a fresh interpreter: imports, data, fit, updates; no evaluation), BC's the same way, in
-turn within each repeat; CPU and wall seconds, and each algorithm's ratio to the BC run of its repeat.
+turn within each repeat; CPU and wall seconds, each algorithm's ratio to the BC run of its repeat, and where each
+run's time goes (imports, set-up, the models' fit, the policy updates, and with ``--episodes`` the evaluation).
 
     python -m benchmarks.speed_whole_run --env LunarLander-v3 --n-trajectories 1 15 --repeats 3 \\
         --csv results/speed_whole_run.csv
@@ -28,26 +29,41 @@ from benchmarks.harness.results import append_rows
 REPO = Path(__file__).resolve().parents[1]
 VARIANTS = {"bc": ("bc", {}), "mbil": ("mbil", {}), "mbil+T": ("mbil", {"fit_transition": True}),
             "mbil_c": ("mbil_c", {})}
+SPLIT = ["imports_s", "setup_s", "fit_s", "updates_s", "evaluation_s"]
 COLUMNS = ["env", "n_trajectories", "repeat", "variant", "cpu_seconds", "wall_seconds", "bc_cpu_seconds",
-           "ratio_cpu", "ratio_wall", "steps", "note", "commit"]
+           "ratio_cpu", "ratio_wall", "steps", *SPLIT, "note", "commit"]
 
 CODE = """
+import json, time
+t0 = time.perf_counter()
 import torch
 torch.set_num_threads(1)
 from benchmarks.harness.grid import tuned_settings
 from sb3_mbil import ALGORITHMS, load_demonstrations
+from sb3_mbil.common.evaluation import evaluate
+t1 = time.perf_counter()
 settings = tuned_settings({algo!r}, {env!r}, {extra!r})
-steps = int(float(settings.pop("n_timesteps")))
+steps = {steps} or int(float(settings.pop("n_timesteps")))
+settings.pop("n_timesteps", None)
 demos = load_demonstrations({env!r}).sample({n}, seed=0)
-ALGORITHMS[{algo!r}]("MlpPolicy", {env!r}, expert_data=demos, seed=0, **settings).learn(steps)
-print(steps)
+model = ALGORITHMS[{algo!r}]("MlpPolicy", {env!r}, expert_data=demos, seed=0, **settings)
+t2 = time.perf_counter()
+model.learn(steps)
+t3 = time.perf_counter()
+if {episodes}:
+    evaluate(model, {env!r}, {episodes}, seed=1_000_000, n_envs=20)
+t4 = time.perf_counter()
+fit = float(model.diagnostics().get("fit_seconds") or 0.0)
+print(json.dumps(dict(steps=steps, imports_s=t1 - t0, setup_s=t2 - t1, fit_s=fit, updates_s=t3 - t2 - fit,
+                      evaluation_s=t4 - t3)))
 """
 
 
-def timed(variant: str, env: str, n: int) -> tuple[float, float, int]:
-    """CPU and wall seconds of one whole run in a fresh interpreter, and its number of updates."""
+def timed(variant: str, env: str, n: int, episodes: int = 0, steps: int | None = None) -> tuple[float, float, dict]:
+    """CPU and wall seconds of one whole run in a fresh interpreter, and its split: imports, data and model set-up,
+    the models' fit (as the algorithm reports it), the policy updates and, with ``episodes``, the evaluation."""
     algo, extra = VARIANTS[variant]
-    code = CODE.format(algo=algo, env=env, n=n, extra=extra)
+    code = CODE.format(algo=algo, env=env, n=n, extra=extra, episodes=episodes, steps=steps)
     env_vars = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": os.pathsep.join(
         p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)}
     t0, r0 = time.perf_counter(), os.times()
@@ -56,7 +72,7 @@ def timed(variant: str, env: str, n: int) -> tuple[float, float, int]:
     if out.returncode != 0:
         raise RuntimeError(f"{variant} on {env} N={n}: {out.stderr.strip().splitlines()[-1]}")
     cpu = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
-    return cpu, wall, int(out.stdout.strip().splitlines()[-1])
+    return cpu, wall, json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv=None) -> None:
@@ -65,6 +81,8 @@ def main(argv=None) -> None:
     p.add_argument("--n-trajectories", type=positive_int, nargs="+", default=[1, 15])
     p.add_argument("--variants", nargs="+", default=["mbil", "mbil+T", "mbil_c"], choices=[v for v in VARIANTS if v != "bc"])
     p.add_argument("--repeats", type=positive_int, default=3)
+    p.add_argument("--episodes", type=int, default=0, help="also evaluate each run on this many episodes (its split)")
+    p.add_argument("--steps", type=positive_int, default=None, help="updates per run (default: the zoo settings')")
     p.add_argument("--csv", default=None)
     p.add_argument("--note", default="", help="what else ran on the machine (recorded in each row)")
     a = p.parse_args(argv)
@@ -75,16 +93,18 @@ def main(argv=None) -> None:
     for n in a.n_trajectories:
         for repeat in range(a.repeats):
             order = ["bc", *a.variants] if repeat % 2 == 0 else [*a.variants[::-1], "bc"]  # alternate the order
-            times = {v: timed(v, a.env, n) for v in order}
+            times = {v: timed(v, a.env, n, a.episodes, a.steps) for v in order}
             bc_cpu, bc_wall, _ = times["bc"]
             rows = []
-            for v in a.variants:
-                cpu, wall, steps = times[v]
+            for v in ["bc", *a.variants]:
+                cpu, wall, split = times[v]
                 rows.append({"env": a.env, "n_trajectories": n, "repeat": repeat, "variant": v,
                              "cpu_seconds": round(cpu, 2), "wall_seconds": round(wall, 2), "bc_cpu_seconds": round(bc_cpu, 2),
-                             "ratio_cpu": round(cpu / bc_cpu, 3), "ratio_wall": round(wall / bc_wall, 3), "steps": steps,
+                             "ratio_cpu": round(cpu / bc_cpu, 3), "ratio_wall": round(wall / bc_wall, 3),
+                             "steps": split["steps"], **{k: round(split[k], 2) for k in SPLIT},
                              "note": a.note, "commit": commit})
-                summary.setdefault((n, v), []).append(cpu / bc_cpu)
+                if v != "bc":
+                    summary.setdefault((n, v), []).append(cpu / bc_cpu)
                 print(json.dumps(rows[-1]), flush=True)
             if a.csv:
                 append_rows(a.csv, rows, COLUMNS)

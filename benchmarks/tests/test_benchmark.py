@@ -630,3 +630,15 @@ def test_transition_report_measures_what_the_action_changes_in_t():
     assert "| Hopper-v4 | 100 | True |" in diagnostics_table([row])
     with pytest.raises(ValueError, match="alpha_model > 0"):
         transition_diagnostics("Hopper-v4", 100, {"alpha_model": 0.0})
+
+
+def test_whole_run_speed_rows_split_each_run_and_pair_it_with_bc(tmp_path):
+    from benchmarks.speed_whole_run import COLUMNS, SPLIT, main
+
+    out = tmp_path / "speed.csv"
+    main(["--env", "CartPole-v1", "--n-trajectories", "1", "--variants", "mbil_c", "--repeats", "1", "--steps", "30",
+          "--episodes", "2", "--csv", str(out)])
+    rows = rows_of(out)
+    assert [r["variant"] for r in rows] == ["bc", "mbil_c"] and list(rows[0]) == COLUMNS
+    assert all(float(r[k]) >= 0 for r in rows for k in SPLIT) and float(rows[1]["fit_s"]) > 0
+    assert float(rows[0]["ratio_cpu"]) == 1.0 and int(rows[1]["steps"]) == 30
