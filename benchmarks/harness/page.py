@@ -292,6 +292,19 @@ def paired_difference(d: np.ndarray) -> str:
     return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}], above on {int((d > 0).sum())} of {len(d)}"
 
 
+def stochastic_section(folder: str) -> str:
+    """The stochastic-demonstrator study (sampled and noisy pools; ``benchmarks.stochastic_report``)."""
+    from benchmarks.stochastic_report import sections
+
+    if not os.path.isdir(folder):
+        return ""
+    return ("## Stochastic demonstrators\n\nThe experts' own sampled actions and noisy demonstrators, every algorithm "
+            "against BC at its best (BC*) with one tuning budget; protocol and findings: "
+            "[docs/stochastic.md](docs/stochastic.md).\n\n" + sections(folder, level="###",
+                                                                         figure="results/stochastic_crossover.png",
+                                                                         tuning_table_too=False) + "\n")
+
+
 def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes.md", plots: bool = True) -> str:
     """The whole BENCHMARKS.md; with ``plots``, each section's figure is written beside its CSV."""
     from benchmarks.harness.grid import git_commit
@@ -357,6 +370,7 @@ def benchmarks_page(reps: int = 2000, notes: str | Path = "docs/benchmarks_notes
         curves_section("Figure 4, the first backbone: MBIL and BC", "results/mujoco.csv",
                        "The earlier runs: a linear-output Gaussian mean and a constant learning rate, the previous "
                        "expert pools of Walker2d-v4 and Ant-v4.", plots=plots),
+        stochastic_section("results/stochastic"),
         peers_section("results/peers.csv"),
         peers_section("results/peers_relu.csv", "## Peers with ReLU hidden layers: classic control",
                       "The earlier classic-control pairs: both libraries with ReLU hidden layers, before our BC's zoo "
