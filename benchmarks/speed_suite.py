@@ -23,7 +23,7 @@ from benchmarks.harness.results import append_rows
 
 REPO = Path(__file__).resolve().parents[1]
 BUSY = "import torch\ntorch.set_num_threads(1)\nx = torch.randn(256, 256)\nwhile True:\n    x = (x @ x).tanh()\n"
-COLUMNS = ["busy", "note", "wall_seconds", "passed", "failed", "summary", "commit"]
+COLUMNS = ["busy", "note", "wall_seconds", "passed", "failed", "summary", "failures", "commit"]
 
 
 def main(argv=None) -> None:
@@ -46,8 +46,9 @@ def main(argv=None) -> None:
     summary = next((line.strip("= ") for line in reversed(out.stdout.splitlines()) if " in " in line and "passed" in line),
                    out.stdout.strip().splitlines()[-1] if out.stdout.strip() else "no output")
     counts = {k: int(n) for n, k in re.findall(r"(\d+) (passed|failed)", summary)}
+    failures = [line.split(" ")[1] for line in out.stdout.splitlines() if line.startswith("FAILED ")]
     row = {"busy": a.busy, "note": a.note, "wall_seconds": round(wall, 1), "passed": counts.get("passed", 0),
-           "failed": counts.get("failed", 0), "summary": summary, "commit": git_commit()}
+           "failed": counts.get("failed", 0), "summary": summary, "failures": " ".join(failures), "commit": git_commit()}
     print(row)
     if a.csv:
         append_rows(a.csv, [row], COLUMNS)

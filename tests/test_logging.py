@@ -27,12 +27,14 @@ def test_tensorboard_run_is_named_after_the_algorithm_and_holds_its_terms(algo, 
     assert steps == [10, 20, 30, 40, 50, 60]
 
 
-@pytest.mark.parametrize("algo, models, kwargs", [(MBIL, ["T(s' | s, a)", "P(a' | s, a, s')"], {}),
+@pytest.mark.parametrize("algo, models, kwargs", [(MBIL, ["P(a' | s, a, s')"], {}),
+                                                   (MBIL, ["T(s' | s, a)", "P(a' | s, a, s')"], {"fit_transition": True}),
                                                    (MBILC, ["P(a' | s, a, s')", "T(s' | s, a)"], {"alpha_model": 1.0})])
 def test_fitting_prints_progress_when_verbose(algo, models, kwargs, cartpole_data, capsys):
     make(algo, "CartPole-v1", cartpole_data, verbose=1, **kwargs).learn(1)
     out = capsys.readouterr().out
     assert "expert tuples" in out
+    assert (algo is not MBIL) or (("T(s' | s, a)" in out) == bool(kwargs))  # MBIL fits T only when asked
     for name in models:
         assert re.search(re.escape(f"{algo.__name__}: {name}: noise ") + r"[0-9.]+: held-out log-likelihood -?[0-9.]+ at step", out)
     make(algo, "CartPole-v1", cartpole_data, verbose=0).learn(1)

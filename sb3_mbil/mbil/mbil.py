@@ -31,9 +31,6 @@ from sb3_mbil.mbil.diagnostics import balance_diagnostics
 from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
 
 
-def _rounded(value: float | None) -> float | None:
-    return None if value is None else round(value, 4)
-
 
 class MBIL(OfflineAlgorithm):
     """Markov Balance-based Imitation Learning.
@@ -325,9 +322,10 @@ class MBIL(OfflineAlgorithm):
         out = super().diagnostics()
         if self.flow_report:
             out.update(fit_seconds=self.flow_report["fit_seconds"], target_mean=round(float(self.tuple_targets().mean()), 4),
-                       p_heldout_ll=_rounded(self.flow_report["p_heldout_ll"]),
-                       transition_heldout_ll=_rounded(self.flow_report["transition_heldout_ll"]),
                        next_action_noise=self.flow_report["next_action"]["noise"])
+            for key in ("p_heldout_ll", "transition_heldout_ll"):  # with T only (fit_transition or the joint estimator)
+                if self.flow_report[key] is not None:
+                    out[key] = round(self.flow_report[key], 4)
         return out
 
     # ------------------------------------------------------------------ policy
