@@ -468,7 +468,8 @@ def test_learn_never_steps_the_env(algo, env_id, data):
 
 
 # Every constructor argument of every algorithm given a wrong type or range raises a ValueError naming it: the
-# cases of benchmarks/robustness.py, asserted clean by tests/test_reliability.py::test_every_tried_fault_gives_a_clean_error.
+# cases of benchmarks/robustness.py, asserted clean by
+# benchmarks/tests/test_harness_reliability.py::test_every_tried_fault_gives_a_clean_error.
 
 
 @pytest.mark.parametrize("algo", [a for a in ALGOS if spaces.Box not in a.supported_action_spaces])
