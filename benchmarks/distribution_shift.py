@@ -1,4 +1,4 @@
-"""Distribution shift (issue 18, the paper's appendix claim): train once per (variant, env, seed), evaluate under
+"""Distribution shift (the paper's appendix claim): train once per (variant, env, seed), evaluate under
 perturbed initial states, observation noise and action noise at 1%, 3% and 10% of the expert's per-dimension std.
 
     python -m benchmarks.distribution_shift --envs LunarLander-v3 --seeds 0-4 --episodes 50 \\

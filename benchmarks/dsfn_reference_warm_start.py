@@ -1,4 +1,4 @@
-"""Issue 17: does the reference code's warm-start data explain the published DSFN curve?
+"""Does the reference code's warm-start data explain the published DSFN curve?
 
 The published DSFN (CKIL's figure; the values are in docs/benchmarks_notes.md) is far below ours on the same draws. DSFN's warm start in
 dtak/batch-apprenticeship-learning (`src/core/data_util.py::GymDataset`, read by `src/model/bc.py::train_bc`) passes

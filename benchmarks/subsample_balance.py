@@ -1,4 +1,4 @@
-"""What keeping every k-th step does to the actions a classifier sees (the published protocol, issue 17).
+"""What keeping every k-th step does to the actions a classifier sees (the published protocol).
 
 An expert that acts in a rhythm (a CartPole controller alternating its pushes) can be sampled in phase by a fixed
 stride: the kept steps then hold one action far more often than the trajectory does. Per pool: how often the

@@ -1,4 +1,4 @@
-"""Issue 17: does where each trajectory's subsampling starts decide BC on the published protocol?
+"""Does where each trajectory's subsampling starts decide BC on the published protocol?
 
 BC with its zoo settings on every 20th step of N drawn trajectories, each trajectory starting at step 0 (our
 `published` protocol before 457e3a9, IQ-Learn's code and EDM's) or at its own random step in [0, 20) (the GAIL codes'

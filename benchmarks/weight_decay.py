@@ -1,4 +1,4 @@
-"""Why weight decay lowers our BC (issue 19): the size of the decay term against the loss's gradient.
+"""Why weight decay lowers our BC: the size of the decay term against the loss's gradient.
 
 Adam's ``weight_decay`` (what ``weight_decay=`` sets here) adds ``lambda * theta`` to each parameter's gradient before
 Adam rescales it: the same as an L2 penalty ``lambda / 2 * |theta|^2`` in the loss. Adam divides every coordinate by

@@ -1,4 +1,4 @@
-"""Issue 19: why weight decay lowers our BC. The decay term lambda * theta against the loss gradient, per parameter
+"""Why weight decay lowers our BC. The decay term lambda * theta against the loss gradient, per parameter
 group, during training on one trajectory (benchmarks.weight_decay).
 
     python -m benchmarks.weight_decay_scale --env Hopper-v4 --seed 100 --updates 20000 --every 5000 \\

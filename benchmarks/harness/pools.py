@@ -36,7 +36,7 @@ def _git(*args: str) -> bytes | None:
 def pool_version(name: str, commit: str | None) -> str:
     """The git blob of the shipped pool ``name`` at ``commit`` (a result row's), or ``"current"``: the pool as it
     is installed (the same file, a pool that is not a shipped file, no git checkout in the working directory, or a
-    commit git does not know). Pools are regenerated (Walker2d-v4 and Ant-v4 by issue 19): a row is measured
+    commit git does not know). Pools are regenerated (Walker2d-v4 and Ant-v4 were): a row is measured
     against the pool it drew from, not the one that replaced it. A pool not yet committed at the row's commit is
     the version of its next commit (runs start while a new pool is on disk)."""
     path = POOL_DIR / f"{name}.npz"
