@@ -80,19 +80,26 @@ def _normalise(value: float, env: str, expert: float) -> float:
     return value / expert
 
 
+def grid_settings(n: int, grid_csv: str = "results/classic_control.csv") -> list[Setting]:
+    """The classic-control grid's cells with ``n`` trajectories (full trajectories, the shipped pools)."""
+    if not Path(grid_csv).is_file():
+        return []
+    rows = [r for r in read_rows(grid_csv) if r.get("protocol", "full") in ("", "full") and r["n_trajectories"] == n]
+    expert = expert_returns(CLASSIC)
+    out = []
+    for env in CLASSIC:
+        s = Setting("deterministic", env, n)
+        for r in rows:
+            if r["env"] == env:
+                s.scores.setdefault(r["algo"], {})[r["seed"]] = _normalise(r["mean_return"], env, expert[env])
+        if s.scores.get("bc"):
+            out.append(s)
+    return out
+
+
 def deterministic_settings(grid_csv: str = "results/classic_control.csv",
                            curves_csv: str = "results/figure4.csv") -> list[Setting]:
-    out = []
-    if Path(grid_csv).is_file():
-        rows = [r for r in read_rows(grid_csv) if r.get("protocol", "full") in ("", "full")]
-        expert = expert_returns(CLASSIC)
-        for env in CLASSIC:
-            s = Setting("deterministic", env, 1)
-            for r in rows:
-                if r["env"] == env and r["n_trajectories"] == 1:
-                    s.scores.setdefault(r["algo"], {})[r["seed"]] = _normalise(r["mean_return"], env, expert[env])
-            if s.scores.get("bc"):
-                out.append(s)
+    out = grid_settings(1, grid_csv)
     if Path(curves_csv).is_file():
         rows = read_result_rows(curves_csv)
         expert = pool_experts(rows)
@@ -165,21 +172,10 @@ def which_table(deterministic: list[Setting], sampled: list[Setting], many_csv: 
         algo, lo, hi, n = recommendation(deterministic)
         lines.append(f"| deterministic (the expert's chosen action) | 1 | `{algo}` | {lo:.2f}-{hi:.2f} | {n} envs, "
                      "[BENCHMARKS.md](BENCHMARKS.md) |")
-    if Path(many_csv).is_file():
-        rows = [r for r in read_rows(many_csv) if r.get("protocol", "full") in ("", "full") and r["n_trajectories"] == 15]
-        expert = expert_returns(CLASSIC)
-        many = []
-        for env in CLASSIC:
-            s = Setting("deterministic", env, 15)
-            for r in rows:
-                if r["env"] == env:
-                    s.scores.setdefault(r["algo"], {})[r["seed"]] = _normalise(r["mean_return"], env, expert[env])
-            if s.scores.get("bc"):
-                many.append(s)
-        if many:
-            algo, lo, hi, n = recommendation(many)
-            lines.append(f"| deterministic | 15 | `{algo}` | {lo:.2f}-{hi:.2f} | {n} envs, "
-                         "[BENCHMARKS.md](BENCHMARKS.md) |")
+    many = grid_settings(15, many_csv)
+    if many:
+        algo, lo, hi, n = recommendation(many)
+        lines.append(f"| deterministic | 15 | `{algo}` | {lo:.2f}-{hi:.2f} | {n} envs, [BENCHMARKS.md](BENCHMARKS.md) |")
     for few, label in ((True, "1"), (False, "3")):
         group = [s for s in sampled if (s.n == 1) == few]
         if group:

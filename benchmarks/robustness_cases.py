@@ -16,6 +16,8 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from benchmarks.harness.cli import harness_env
+
 
 @dataclass
 class Case:
@@ -43,8 +45,7 @@ def _rewrite(src: Path, dst: Path, change) -> Path:
 def _script(*args: str) -> None:
     """A command line run as a user would: a clean outcome is a non-zero exit whose last line names the field."""
     repo = Path(__file__).resolve().parent.parent
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(repo), os.environ.get("PYTHONPATH", "")) if p)}
-    out = subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=600, cwd=repo, env=env)
+    out = subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=600, cwd=repo, env=harness_env())
     if out.returncode == 0:
         return None
     if "Traceback" in out.stderr:

@@ -20,13 +20,11 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
-from benchmarks.harness.cli import check_appendable, positive_int, run
+from benchmarks.harness.cli import REPO, check_appendable, harness_env, positive_int, run
 from benchmarks.harness.grid import git_commit
 from benchmarks.harness.results import append_rows
 
-REPO = Path(__file__).resolve().parents[1]
 VARIANTS = {"bc": ("bc", {}), "mbil": ("mbil", {}), "mbil+T": ("mbil", {"fit_transition": True}),
             "mbil_c": ("mbil_c", {})}
 SPLIT = ["imports_s", "setup_s", "fit_s", "updates_s", "evaluation_s"]
@@ -64,8 +62,7 @@ def timed(variant: str, env: str, n: int, episodes: int = 0, steps: int | None =
     the models' fit (as the algorithm reports it), the policy updates and, with ``episodes``, the evaluation."""
     algo, extra = VARIANTS[variant]
     code = CODE.format(algo=algo, env=env, n=n, extra=extra, episodes=episodes, steps=steps)
-    env_vars = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": os.pathsep.join(
-        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)}
+    env_vars = harness_env(OMP_NUM_THREADS="1")
     t0, r0 = time.perf_counter(), os.times()
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env_vars, cwd=REPO)
     wall, r1 = time.perf_counter() - t0, os.times()

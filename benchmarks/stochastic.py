@@ -28,6 +28,7 @@ import numpy as np
 import torch as th
 
 from sb3_mbil import ALGORITHMS
+from benchmarks.harness.cli import parse_seeds
 from benchmarks.harness.grid import git_commit, tuned_settings
 from benchmarks.harness.results import append_rows, finished_keys
 from sb3_mbil.common.demonstrations import load_demonstrations
@@ -199,13 +200,6 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
                     append_rows(csv_path, [row], COLUMNS)
                     print(f"{name} {env_id} {pool} N={n} seed={seed}: {row['mean_return']:.1f} "
                           f"({row['train_seconds']} s)", flush=True)
-
-
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def main(argv=None) -> None:

@@ -14,6 +14,17 @@ from sb3_mbil.common.cli import (  # noqa: F401  (re-exported for the harness's 
 )
 
 
+#: the checkout: the harness is not installed, so a harness command run elsewhere needs it on PYTHONPATH
+REPO = Path(__file__).resolve().parents[2]
+
+
+def harness_env(**extra: str) -> dict[str, str]:
+    """This process's environment with the checkout on PYTHONPATH (for ``python -m benchmarks.<script>`` run from
+    any folder), plus ``extra``."""
+    path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)
+    return {**os.environ, "PYTHONPATH": path, **extra}
+
+
 def overrides_json(text: str) -> dict[str, dict[str, Any]]:
     """``--overrides``: a JSON object of settings per algorithm, ``{"mbil": {"alpha": 0.1}}``; each checked against
     the algorithm's constructor (one line naming a misspelt key)."""

@@ -11,7 +11,7 @@ import pytest
 from benchmarks.harness import RESULT_COLUMNS, Run, make_grid
 from benchmarks.harness.report import aggregate, plot, read_rows, table
 from benchmarks.harness.runner import pending, run_local, run_ray
-from subprocess_env import harness_env
+from benchmarks.harness.cli import harness_env
 
 TINY_FLOWS = {"flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]}
 TINY = {"mbil": {"n_timesteps": 20, "flow_max_steps": 30, "noise_grid": [0.1], "flow_hidden": [16]},

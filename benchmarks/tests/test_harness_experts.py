@@ -5,7 +5,7 @@ import subprocess
 import sys
 import gymnasium as gym
 import numpy as np
-from subprocess_env import harness_env
+from benchmarks.harness.cli import harness_env
 
 
 def test_termination_causes_name_the_failed_health_check():

@@ -6,7 +6,7 @@ import subprocess
 import sys
 import pytest
 from pathlib import Path
-from subprocess_env import harness_env
+from benchmarks.harness.cli import harness_env
 
 
 # ---------------------------------------------------------------------------------------------- results CSV

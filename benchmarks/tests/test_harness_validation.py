@@ -1,7 +1,7 @@
 """Held-out validation in the harness: learning curves record the held-out loss; the weight-decay diagnostic."""
 
 import csv
-from subprocess_env import harness_env
+from benchmarks.harness.cli import harness_env
 
 
 def test_learning_curves_record_the_held_out_loss(tmp_path):
