@@ -19,6 +19,7 @@ from sb3_mbil.common.losses import (
 )
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.type_aliases import PairSamples
 from sb3_mbil.common.validation import check_real
 
 
@@ -112,15 +113,21 @@ class BC(OfflineAlgorithm):
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "_obs_scale"]
 
-    def _train_step(self) -> None:
+    def _draw_batch(self) -> PairSamples:
+        """The minibatch of expert pairs, its states noised when ``observation_noise`` > 0."""
         pairs = self.expert_pairs()
         batch = self.sample(pairs)
-        observations = batch.observations
-        if self.observation_noise > 0:  # s + sigma * std(s) * eps, the expert's action kept
-            if self._obs_scale is None:
-                self._obs_scale = pairs.observations.flatten(1).std(0, unbiased=False).view_as(observations[0])
-            observations = observations + self.observation_noise * self._obs_scale * th.randn_like(observations)
-        heads = bc_heads(self.policy, observations, self._bc_kind)
+        if self.observation_noise <= 0:
+            return batch
+        if self._obs_scale is None:
+            self._obs_scale = pairs.observations.flatten(1).std(0, unbiased=False).view_as(batch.observations[0])
+        noise = th.randn(batch.observations.shape, generator=self._generator(), dtype=batch.observations.dtype,
+                         device=batch.observations.device)
+        # s + sigma * std(s) * eps, the expert's action kept
+        return PairSamples(batch.observations + self.observation_noise * self._obs_scale * noise, batch.actions)
+
+    def _batch_loss(self, batch: PairSamples) -> th.Tensor:
+        heads = bc_heads(self.policy, batch.observations, self._bc_kind)
 
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)
@@ -137,7 +144,4 @@ class BC(OfflineAlgorithm):
             penalty = logit_penalty(heads)
             loss = loss + self.logit_penalty * penalty
             self._record("train/logit_penalty", penalty)
-
-        self.policy.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.policy.optimizer.step()
+        return loss

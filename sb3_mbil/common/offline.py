@@ -376,7 +376,7 @@ class OfflineAlgorithm(BaseAlgorithm):
     def _excluded_save_params(self) -> list[str]:
         # The dataset and everything derived from it stay out of the zip.
         return [*super()._excluded_save_params(), "expert_data", "_demonstrations", "_expert_cache", "_train_stats", "_parameters",
-                "_data_in_use", "_window"]
+                "_data_in_use", "_window", "_record_sink", "_lockstep_generator"]
 
     def set_expert_data(self, expert_data: ExpertData) -> None:
         """Give (or replace) the expert data, e.g. after ``load`` to continue learning. Inside ``learn`` only a
@@ -501,8 +501,30 @@ class OfflineAlgorithm(BaseAlgorithm):
         """Called once at the start of every ``learn`` (after the logger is set)."""
 
     def _train_step(self) -> None:
-        """One gradient step. Record values with ``self._record``."""
+        """One gradient step. Record values with ``self._record``.
+
+        The default is the lockstep-ready form (:mod:`sb3_mbil.common.lockstep`): :meth:`_draw_batch` then
+        :meth:`_batch_loss`, one step of the policy's optimiser. An algorithm with other optimisers writes its own."""
+        loss = self._batch_loss(self._draw_batch())
+        self.policy.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.policy.optimizer.step()
+
+    def _draw_batch(self) -> Any:
+        """Every random draw of one update and every per-model tensor its loss reads (the minibatch's rows, their
+        cached targets), as a tuple of tensors (``None`` for an unused field)."""
         raise NotImplementedError
+
+    def _batch_loss(self, batch: Any) -> th.Tensor:
+        """The update's loss from :meth:`_draw_batch`'s batch: a function of the policy's parameters and the batch
+        only (no random draw, no other model's state), so that seeds can evaluate it on stacked parameters."""
+        raise NotImplementedError
+
+    def supports_lockstep(self) -> bool:
+        """True when the update is :meth:`_draw_batch` and :meth:`_batch_loss` on the policy's optimiser alone, so that
+        several seeds can train as one batched network (:func:`sb3_mbil.learn_lockstep`)."""
+        return type(self)._batch_loss is not OfflineAlgorithm._batch_loss and \
+            type(self)._train_step is OfflineAlgorithm._train_step
 
     # ------------------------------------------------------------------ learn
     def learn(
@@ -532,6 +554,24 @@ class OfflineAlgorithm(BaseAlgorithm):
 
     def _learn(self: SelfOffline, total_timesteps: int, callback: MaybeCallback, log_interval: int,
                tb_log_name: str | None, reset_num_timesteps: bool, progress_bar: bool) -> SelfOffline:
+        total_timesteps, callback = self._begin_learning(total_timesteps, callback, tb_log_name, reset_num_timesteps,
+                                                         progress_bar)
+        try:
+            while self.num_timesteps < total_timesteps and not self.training_complete():
+                self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
+                self._update_learning_rate(self._optimizers())
+                self._train_step()
+                if not self._end_step(callback, log_interval):
+                    break
+            self._finish_learning(callback)
+        finally:
+            self._data_in_use = False
+        return self
+
+    def _begin_learning(self, total_timesteps: int, callback: MaybeCallback, tb_log_name: str | None,
+                        reset_num_timesteps: bool, progress_bar: bool):
+        """Everything before the first update: SB3's set-up, the data's checks, the callbacks' start, the models'
+        fits (``_prepare_training``); returns SB3's (total_timesteps, callback)."""
         if self.env is None:
             raise ValueError("env: expected an env to learn (load the model with env=...), found None")
         if isinstance(total_timesteps, bool) or not (
@@ -551,38 +591,43 @@ class OfflineAlgorithm(BaseAlgorithm):
             self.policy.set_observation_stats(self.expert_pairs().observations)
         self._data_in_use = True
         try:
-            return self._train(total_timesteps, callback, log_interval)
-        finally:
+            self._prepare_training()
+        except BaseException:
             self._data_in_use = False
-
-    def _train(self: SelfOffline, total_timesteps: int, callback, log_interval: int) -> SelfOffline:
-        self._prepare_training()
+            raise
         self.policy.set_training_mode(True)
         self._train_stats: dict[str, tuple] = {}
         self._window: dict[str, list[tuple[int, th.Tensor]]] = {}
         self._parameters: list[tuple[str, th.nn.Parameter]] | None = None
-        while self.num_timesteps < total_timesteps and not self.training_complete():
-            self._update_current_progress_remaining(self.num_timesteps, total_timesteps)
-            self._update_learning_rate(self._optimizers())
-            self._train_step()
-            self.num_timesteps += 1
-            if self.num_timesteps % FINITE_CHECK_EVERY == 0:
-                self._check_finite()
-            self._n_updates += 1
-            callback.update_locals(locals())
-            if not callback.on_step():
-                break
-            if log_interval > 0 and self.num_timesteps % log_interval == 0:
-                self.dump_logs()
+        return total_timesteps, callback
+
+    def _end_step(self, callback, log_interval: int) -> bool:
+        """After one update: count it, check finiteness every ``FINITE_CHECK_EVERY`` steps, call the callbacks, dump
+        the logs; False when a callback stops training."""
+        self.num_timesteps += 1
+        if self.num_timesteps % FINITE_CHECK_EVERY == 0:
+            self._check_finite()
+        self._n_updates += 1
+        callback.update_locals(locals())
+        if not callback.on_step():
+            return False
+        if log_interval > 0 and self.num_timesteps % log_interval == 0:
+            self.dump_logs()
+        return True
+
+    def _finish_learning(self, callback) -> None:
         self._check_finite()
         self.policy.set_training_mode(False)
         callback.on_training_end()
-        return self
 
     def _record(self, key: str, value: th.Tensor) -> None:
         """Keep a training statistic (its mean since the last dump is logged). Nothing waits for the device here:
         every ``FINITE_CHECK_EVERY`` steps :meth:`_check_finite` checks the kept values at once, and a non-finite
         one stops training naming its term and the step it appeared at."""
+        sink = getattr(self, "_record_sink", None)
+        if sink is not None:  # lockstep: the values leave the batched loss as its output
+            sink[key] = value.detach()
+            return
         self._window.setdefault(key, []).append((self.num_timesteps + 1, value.detach()))
 
     def _check_finite(self) -> None:
@@ -637,4 +682,9 @@ class OfflineAlgorithm(BaseAlgorithm):
 
     def _sample_indices(self, n: int) -> th.Tensor:
         """A minibatch of ``batch_size`` indices in [0, n), drawn with replacement."""
-        return th.randint(0, n, (self.batch_size,), device=self.device)
+        return th.randint(0, n, (self.batch_size,), device=self.device, generator=self._generator())
+
+    def _generator(self) -> th.Generator | None:
+        """The generator of the training stream: torch's global one (set by ``learn``), or the model's own while it
+        trains in lockstep with other seeds."""
+        return getattr(self, "_lockstep_generator", None)

@@ -13,6 +13,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.networks import MlpCritic, make_target, q_at, soft_q, soft_update
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.type_aliases import TransitionSamples
 from sb3_mbil.common.validation import check_real, check_sizes
 
 
@@ -139,30 +140,24 @@ class IQLearn(OfflineAlgorithm):
         q = critic(self.policy.features(obs), th.maximum(th.minimum(sample, high), low))[0].squeeze(-1)
         return q - self.temperature * log_pi, log_pi, q
 
-    def _train_step(self) -> None:
-        batch = self.sample(self.expert_transitions())
-        discrete = isinstance(self.action_space, spaces.Discrete)
-        if discrete:
-            q_all, q_all_next = self.policy.logits(th.cat([batch.observations, batch.next_observations])).chunk(2)
-            q = q_at(q_all, batch.actions)
-            v = soft_q(q_all, self.temperature)[1]
-            v_next = soft_q(q_all_next, self.temperature)[1]
-            q_random = q_all.mean(dim=-1)
-        else:
-            features = self.policy.features(batch.observations)
-            q = self.critic(features, batch.actions)[0].squeeze(-1)
-            # V(s) = Q(s, a~) - t log pi(a~ | s): its gradient reaches Q (it pushes Q down at the policy's actions);
-            # the actor's sample is held fixed here. V(s') comes from the target critic.
-            with th.no_grad():
-                policy_heads = self.policy.heads(batch.observations)
-            v = self._box_value(self.critic, batch.observations, heads=policy_heads)[0]
-            with th.no_grad():
-                v_next = self._box_value(self.critic_target, batch.next_observations)[0]
-                low = self.policy.action_center - self.policy.action_half_range
-                random_actions = low + 2 * self.policy.action_half_range * th.rand_like(batch.actions.float())
-                q_random = self.critic(features, random_actions)[0].squeeze(-1)
+    def supports_lockstep(self) -> bool:
+        """Discrete only: Box actions train a critic and an actor with their own optimisers and draws."""
+        return isinstance(self.action_space, spaces.Discrete)
 
-        # The IQ loss on expert transitions, y = gamma (1 - done) V(s').
+    def _draw_batch(self) -> TransitionSamples:
+        return self.sample(self.expert_transitions())
+
+    def _batch_loss(self, batch: TransitionSamples) -> th.Tensor:
+        """Discrete: the IQ loss of the soft Q-function that is the policy's logits."""
+        q_all, q_all_next = self.policy.logits(th.cat([batch.observations, batch.next_observations])).chunk(2)
+        q = q_at(q_all, batch.actions)
+        v = soft_q(q_all, self.temperature)[1]
+        v_next = soft_q(q_all_next, self.temperature)[1]
+        return self._iq_loss(q, v, v_next, q_all.mean(dim=-1), batch)
+
+    def _iq_loss(self, q: th.Tensor, v: th.Tensor, v_next: th.Tensor, q_random: th.Tensor,
+                 batch: TransitionSamples) -> th.Tensor:
+        """The IQ loss on expert transitions, y = gamma (1 - done) V(s')."""
         y = self.gamma * (1.0 - batch.dones) * v_next
         loss_expert = -(q - y).mean()
         loss_value = (v - y).mean()
@@ -173,13 +168,29 @@ class IQLearn(OfflineAlgorithm):
         self._record("train/q_expert", q.detach().mean())
         self._record("train/q_random", q_random.detach().mean())
         self._record("train/v_expert", v.detach().mean())
+        return critic_loss
 
-        critic_optimizer = self.policy.optimizer if discrete else self.critic.optimizer  # Discrete: Q is pi's logits
-        critic_optimizer.zero_grad(set_to_none=True)
+    def _train_step(self) -> None:
+        if isinstance(self.action_space, spaces.Discrete):  # Q is pi's logits: one step of the policy's optimiser
+            return super()._train_step()
+        batch = self._draw_batch()
+        features = self.policy.features(batch.observations)
+        q = self.critic(features, batch.actions)[0].squeeze(-1)
+        # V(s) = Q(s, a~) - t log pi(a~ | s): its gradient reaches Q (it pushes Q down at the policy's actions);
+        # the actor's sample is held fixed here. V(s') comes from the target critic.
+        with th.no_grad():
+            policy_heads = self.policy.heads(batch.observations)
+        v = self._box_value(self.critic, batch.observations, heads=policy_heads)[0]
+        with th.no_grad():
+            v_next = self._box_value(self.critic_target, batch.next_observations)[0]
+            low = self.policy.action_center - self.policy.action_half_range
+            random_actions = low + 2 * self.policy.action_half_range * th.rand_like(batch.actions.float())
+            q_random = self.critic(features, random_actions)[0].squeeze(-1)
+        critic_loss = self._iq_loss(q, v, v_next, q_random, batch)
+        self.critic.optimizer.zero_grad(set_to_none=True)
         critic_loss.backward()
-        critic_optimizer.step()
-        if not discrete:
-            self._actor_step(batch)
+        self.critic.optimizer.step()
+        self._actor_step(batch)
 
     def _actor_step(self, batch) -> None:
         """Box: the SAC-style actor on expert states, then the target critic's Polyak update."""

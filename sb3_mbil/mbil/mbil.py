@@ -342,17 +342,24 @@ class MBIL(OfflineAlgorithm):
             self.logger.record("flows/next_action_noise", self.flow_report["next_action"]["noise"])
         self.logger.record("flows/target_mean", float(self.tuple_targets().mean()))
 
-    def _train_step(self) -> None:
+    def _draw_batch(self) -> tuple[th.Tensor, ...]:
+        """(s_i, a_i) expert pairs for the BC term and (s'_j, a'_j, target_j) expert tuples for the balance term (no
+        rows for a term whose weight is 0)."""
         pairs, tuples = self.expert_pairs(), self.expert_tuples()
         i = self._sample_indices(len(pairs.observations)) if self.beta > 0 else self._no_rows
         j = self._sample_indices(len(tuples.observations)) if self.alpha > 0 else self._no_rows
+        return (pairs.observations[i], pairs.actions[i], tuples.next_observations[j], tuples.next_actions[j],
+                self._targets[j])
+
+    def _batch_loss(self, batch: tuple[th.Tensor, ...]) -> th.Tensor:
+        states, actions, next_states, next_actions, targets = batch
         # pi at the expert states s (BC term) and next states s' (balance term), in one forward pass
-        heads_s, heads_next = self._heads_at(pairs.observations[i], tuples.next_observations[j])
+        heads_s, heads_next = self._heads_at(states, next_states)
         loss = th.zeros((), device=self.device)
 
         # Balance term: E[(log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'))^2], the first two cached per tuple.
         if self.alpha > 0:
-            residual = self._targets[j] - self.policy.log_prob_from_heads(heads_next, tuples.next_actions[j])
+            residual = targets - self.policy.log_prob_from_heads(heads_next, next_actions)
             balance_loss = residual.pow(2).mean()
             loss = loss + self.alpha * balance_loss
             self._record("train/balance_loss", balance_loss)
@@ -360,13 +367,10 @@ class MBIL(OfflineAlgorithm):
 
         # BC term: L_BC(pi, D) on the expert's (s, a) pairs.
         if self.beta > 0:
-            bc = bc_loss(self.policy, heads_s, pairs.actions[i], self._bc_kind)
+            bc = bc_loss(self.policy, heads_s, actions, self._bc_kind)
             loss = loss + self.beta * bc
             self._record("train/bc_loss", bc)
-
-        self.policy.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.policy.optimizer.step()
+        return loss
 
     @property
     def _no_rows(self) -> th.Tensor:

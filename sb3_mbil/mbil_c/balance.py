@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import torch as th
 
@@ -77,15 +78,21 @@ class BalanceTargets:
     model_tuples: th.Tensor | None = None
 
 
-@dataclass
-class Minibatch:
-    """One update's draws and the policy's heads at them (one forward pass over all the states)."""
+class Draws(NamedTuple):
+    """One update's rows, gathered from :class:`BalanceTargets` (tensors only, ``None`` for what the update does not
+    use), so that the loss reads nothing of the model's caches and seeds can train in lockstep."""
 
-    pairs: th.Tensor  # indices i of expert pairs
-    model: th.Tensor | None  # indices j of model states (None: not used)
-    orphans: th.Tensor | None  # indices k of orphan tuples (None: not used)
-    heads: list[th.Tensor]  # at the expert states s_i
-    heads_model: list[th.Tensor]
-    heads_orphan: list[th.Tensor]
-    #: (Discrete) log pi(. | s_i), shared by the BC and the balance term
-    log_pi: th.Tensor | None
+    states: th.Tensor  # expert states s_i
+    actions: th.Tensor  # their actions a_i
+    #: (Discrete, KL, no model or orphan states) beta * onehot(a_i) + alpha * w_i * P(. | s, a, s_i): the fused update
+    soft_labels: th.Tensor | None
+    weight: th.Tensor | None  # w_i: 0 where s_i opens a trajectory, mean 1
+    probs: th.Tensor | None  # (Discrete) P(. | s, a, s_i)
+    neg_entropy: th.Tensor | None  # (Discrete) sum P log P
+    data: tuple[th.Tensor, ...] | None  # P(. | s, a, s_i) as ``(log_probs,)`` or ``(mean, log_std)``
+    model_states: th.Tensor | None  # model states s~_j
+    model: tuple[th.Tensor, ...] | None  # P(. | s, a, s~_j) (``model_labels="balance"``)
+    model_actions: th.Tensor | None  # a~_j (``model_labels="corrective"``)
+    orphan_states: th.Tensor | None  # orphans' s'_k
+    orphan_target: tuple[th.Tensor, ...] | None  # P(. | s, a, s'_k)
+    inner_share: th.Tensor | None  # (with orphans) the share of the tuples that are not orphans

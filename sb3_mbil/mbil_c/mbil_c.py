@@ -47,7 +47,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.losses import bc_loss, check_logit_penalty, logit_penalty, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
-from sb3_mbil.mbil_c.balance import DIVERGENCES, BalanceTargets, Minibatch, balance_divergence
+from sb3_mbil.mbil_c.balance import DIVERGENCES, BalanceTargets, Draws, balance_divergence
 from sb3_mbil.mbil_c.models import BalanceModels
 from sb3_mbil.mbil_c.policies import BalanceModel, ImitationPolicy
 
@@ -265,105 +265,112 @@ class MBILC(BalanceModels, OfflineAlgorithm):
             if "transition" in self.model_report:
                 self.logger.record("model/transition_heldout_ll", self.model_report["transition"]["heldout_ll"])
 
-    def _train_step(self) -> None:
+    def _draw_batch(self) -> Draws:
+        """Draw the update's expert pairs, model states and orphan tuples, and gather their rows of the targets."""
         pairs, targets = self.expert_pairs(), self.balance_targets()
-        batch = self._minibatch(pairs, targets)
-        if self._fused(targets, batch):
-            loss = self._fused_loss(targets, batch)
-        else:
-            loss = th.zeros((), device=self.device)
-            if self.beta > 0:
-                loss = loss + self.beta * self._bc_term(pairs, batch)
-            if self.logit_penalty > 0:
-                loss = loss + self.logit_penalty * self._logit_penalty_term(batch)
-            if self.alpha > 0:
-                loss = loss + self.alpha * self._data_balance_term(targets, batch)
-            if batch.model is not None:
-                loss = loss + self.alpha_model * self._model_term(targets, batch)
-        self.policy.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.policy.optimizer.step()
-        if self._fused(targets, batch):
-            self._record_fused_terms(pairs, targets, batch, loss)
-
-    def _minibatch(self, pairs, targets: BalanceTargets) -> Minibatch:
-        """Draw the update's expert pairs, model states and orphan tuples; one forward pass over all their states."""
         i = self._sample_indices(len(pairs.observations))
         use_model = self.alpha_model > 0 and len(targets.states) > 0
         j = self._sample_indices(len(targets.states)) if use_model else None
         use_orphans = self.alpha > 0 and targets.orphan_states is not None
         k = self._sample_indices(len(targets.orphan_states)) if use_orphans else None
-        states = [pairs.observations[i]] + ([targets.states[j]] if use_model else []) \
-            + ([targets.orphan_states[k]] if use_orphans else [])
-        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])
-        n, n_model = len(i), (len(j) if use_model else 0)
-        heads_s = [h[:n] for h in heads]
+        # Discrete, KL, no model or orphan states: the BC and the data balance terms are one cross-entropy
         fused = targets.soft_labels is not None and self._divergence == "kl" and not use_model and not use_orphans
-        log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete and not fused else None
-        return Minibatch(i, j, k, heads_s, [h[n:n + n_model] for h in heads], [h[n + n_model:] for h in heads], log_pi)
+        discrete_kl = self.policy.discrete and self._divergence == "kl"
+        records_terms = fused and self.num_timesteps % 10 == 0  # the fused loss's two terms, every 10th update
+        balance = self.alpha > 0 and not fused
 
-    def _fused(self, targets: BalanceTargets, batch: Minibatch) -> bool:
-        """Discrete, KL, no model or orphan states: the BC and the data balance terms are one cross-entropy."""
-        return targets.soft_labels is not None and self._divergence == "kl" and batch.model is None \
-            and batch.orphans is None
+        def rows(field, index, used=True):
+            if not used or field is None:
+                return None
+            return tuple(f[index] for f in field) if isinstance(field, tuple) else field[index]
 
-    def _fused_loss(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
-        """beta * L_BC + alpha * KL at the data = CE(soft labels, pi) + const (the same gradient, one op), plus the
-        logit penalty."""
-        loss = th.nn.functional.cross_entropy(batch.heads[0], targets.soft_labels[batch.pairs])
+        return Draws(
+            states=pairs.observations[i], actions=pairs.actions[i],
+            soft_labels=rows(targets.soft_labels, i, fused),
+            weight=rows(targets.weight, i, balance or records_terms),
+            probs=rows(targets.probs, i, (balance and discrete_kl) or records_terms),
+            neg_entropy=rows(targets.neg_entropy, i, (balance and discrete_kl) or records_terms),
+            data=rows(targets.data, i, balance and not discrete_kl),
+            model_states=rows(targets.states, j, use_model),
+            model=rows(targets.model, j, use_model and self.model_labels == "balance"),
+            model_actions=rows(targets.model_actions, j, use_model and self.model_labels == "corrective"),
+            orphan_states=rows(targets.orphan_states, k, use_orphans),
+            orphan_target=rows(targets.orphan_target, k, use_orphans),
+            inner_share=th.tensor(targets.inner_share, device=self.device) if use_orphans else None,
+        )
+
+    def _batch_loss(self, draws: Draws) -> th.Tensor:
+        states = [draws.states, *(s for s in (draws.model_states, draws.orphan_states) if s is not None)]
+        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])  # one forward pass
+        n = len(draws.states)
+        n_model = len(draws.model_states) if draws.model_states is not None else 0
+        heads_s = [h[:n] for h in heads]
+        heads_model, heads_orphan = [h[n:n + n_model] for h in heads], [h[n + n_model:] for h in heads]
+        if draws.soft_labels is not None:
+            return self._fused_loss(draws, heads_s)
+        # (Discrete) log pi(. | s_i), shared by the BC and the balance term
+        log_pi = th.log_softmax(heads_s[0], dim=-1) if self.policy.discrete else None
+        loss = th.zeros((), device=self.device)
+        if self.beta > 0:
+            loss = loss + self.beta * self._bc_term(draws, heads_s, log_pi)
         if self.logit_penalty > 0:
-            loss = loss + self.logit_penalty * logit_penalty(batch.heads)
+            loss = loss + self.logit_penalty * self._logit_penalty_term(heads_s)
+        if self.alpha > 0:
+            loss = loss + self.alpha * self._data_balance_term(draws, heads_s, log_pi, heads_orphan)
+        if draws.model_states is not None:
+            loss = loss + self.alpha_model * self._model_term(draws, heads_model)
         return loss
 
-    def _record_fused_terms(self, pairs, targets: BalanceTargets, batch: Minibatch, loss: th.Tensor) -> None:
-        """The fused loss every update; its two terms, recomputed without gradient, every 10th."""
+    def _fused_loss(self, draws: Draws, heads: list[th.Tensor]) -> th.Tensor:
+        """beta * L_BC + alpha * KL at the data = CE(soft labels, pi) + const (the same gradient, one op), plus the
+        logit penalty; its two terms are recomputed without gradient every 10th update."""
+        loss = th.nn.functional.cross_entropy(heads[0], draws.soft_labels)
+        if self.logit_penalty > 0:
+            loss = loss + self.logit_penalty * logit_penalty(heads)
         self._record("train/loss", loss)
-        if self.num_timesteps % 10 == 0:
-            with th.no_grad():
-                i = batch.pairs
-                log_pi = th.log_softmax(batch.heads[0].detach(), dim=-1)
-                self._record("train/bc_loss", -log_pi.gather(1, pairs.actions[i].view(-1, 1)).mean())
-                kl = targets.neg_entropy[i] - (targets.probs[i] * log_pi).sum(dim=1)
-                self._record("train/balance_loss", (kl * targets.weight[i]).mean())
+        if draws.weight is not None:
+            log_pi = th.log_softmax(heads[0].detach(), dim=-1)
+            self._record("train/bc_loss", -log_pi.gather(1, draws.actions.view(-1, 1)).mean())
+            kl = draws.neg_entropy - (draws.probs * log_pi).sum(dim=1)
+            self._record("train/balance_loss", (kl * draws.weight).mean())
+        return loss
 
-    def _bc_term(self, pairs, batch: Minibatch) -> th.Tensor:
+    def _bc_term(self, draws: Draws, heads: list[th.Tensor], log_pi: th.Tensor | None) -> th.Tensor:
         """BC term: L_BC(pi, D) on the expert's (s, a) pairs."""
-        i = batch.pairs
-        log_prob = None if batch.log_pi is None else batch.log_pi.gather(1, pairs.actions[i].view(-1, 1)).squeeze(1)
-        bc = bc_loss(self.policy, batch.heads, pairs.actions[i], self._bc_kind, log_prob=log_prob)
+        log_prob = None if log_pi is None else log_pi.gather(1, draws.actions.view(-1, 1)).squeeze(1)
+        bc = bc_loss(self.policy, heads, draws.actions, self._bc_kind, log_prob=log_prob)
         self._record("train/bc_loss", bc)
         return bc
 
-    def _logit_penalty_term(self, batch: Minibatch) -> th.Tensor:
+    def _logit_penalty_term(self, heads: list[th.Tensor]) -> th.Tensor:
         """Logit penalty (Discrete): mean of the squared logits at the expert states."""
-        penalty = logit_penalty(batch.heads)
+        penalty = logit_penalty(heads)
         self._record("train/logit_penalty", penalty)
         return penalty
 
-    def _data_balance_term(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
+    def _data_balance_term(self, draws: Draws, heads: list[th.Tensor], log_pi: th.Tensor | None,
+                           heads_orphan: list[th.Tensor]) -> th.Tensor:
         """Balance at the data: D(P(. | s, a, s') || pi(. | s')) over the pairs that have a predecessor (weight 0 at a
-        trajectory's first step; the weights average 1), mixed with the orphan tuples in proportion to their numbers."""
-        i = batch.pairs
-        if batch.log_pi is not None and self._divergence == "kl":
-            divergence = targets.neg_entropy[i] - (targets.probs[i] * batch.log_pi).sum(dim=1)
+        trajectory's first step; the weights average 1, and are all 0 when every tuple is an orphan), mixed with the
+        orphan tuples in proportion to their numbers."""
+        if draws.probs is not None:  # Discrete, KL
+            divergence = draws.neg_entropy - (draws.probs * log_pi).sum(dim=1)
         else:
-            divergence = balance_divergence(self._divergence, self.policy, [d[i] for d in targets.data], batch.heads)
-        balance = (divergence * targets.weight[i]).mean() if targets.inner_share > 0 else divergence.sum() * 0
-        if batch.orphans is not None:  # tuples whose s' is not an expert pair's state (subsampled data)
-            orphan = balance_divergence(self._divergence, self.policy, [d[batch.orphans] for d in targets.orphan_target],
-                                        batch.heads_orphan).mean()
-            balance = targets.inner_share * balance + (1 - targets.inner_share) * orphan
+            divergence = balance_divergence(self._divergence, self.policy, draws.data, heads)
+        balance = (divergence * draws.weight).mean()
+        if draws.orphan_states is not None:  # tuples whose s' is not an expert pair's state (subsampled data)
+            orphan = balance_divergence(self._divergence, self.policy, draws.orphan_target, heads_orphan).mean()
+            balance = draws.inner_share * balance + (1 - draws.inner_share) * orphan
         self._record("train/balance_loss", balance)
         return balance
 
-    def _model_term(self, targets: BalanceTargets, batch: Minibatch) -> th.Tensor:
+    def _model_term(self, draws: Draws, heads: list[th.Tensor]) -> th.Tensor:
         """At model states: corrective labels, L_BC(pi) on the kept (s~, a~) (``model_labels="corrective"``); or the
         balance D(P(. | s, a, s~') || pi(. | s~')) with s~' ~ T^kappa(. | s, a)."""
-        j = batch.model
         if self.model_labels == "corrective":
-            corrective = bc_loss(self.policy, batch.heads_model, targets.model_actions[j], self._bc_kind)
+            corrective = bc_loss(self.policy, heads, draws.model_actions, self._bc_kind)
             self._record("train/corrective_loss", corrective)
             return corrective
-        model_kl = balance_divergence(self._divergence, self.policy, [d[j] for d in targets.model], batch.heads_model).mean()
+        model_kl = balance_divergence(self._divergence, self.policy, draws.model, heads).mean()
         self._record("train/model_balance_loss", model_kl)
         return model_kl

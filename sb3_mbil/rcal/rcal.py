@@ -13,6 +13,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.networks import q_at, soft_q
 from sb3_mbil.common.offline import OfflineAlgorithm
 from sb3_mbil.common.policies import ImitationPolicy
+from sb3_mbil.common.type_aliases import TransitionSamples
 from sb3_mbil.common.validation import check_bool, check_choice, check_real
 
 CLASSIFICATION_LOSSES = ("cross_entropy", "margin")
@@ -105,8 +106,10 @@ class RCAL(OfflineAlgorithm):
         next_value = soft_q(q_next)[1] if self.soft_max else q_next.max(dim=-1).values
         return q_at(q, actions) - self.gamma * (1.0 - dones) * next_value
 
-    def _train_step(self) -> None:
-        batch = self.sample(self.expert_transitions())
+    def _draw_batch(self) -> TransitionSamples:
+        return self.sample(self.expert_transitions())
+
+    def _batch_loss(self, batch: TransitionSamples) -> th.Tensor:
         q, q_next = self.policy.logits(th.cat([batch.observations, batch.next_observations])).chunk(2)
 
         # Classification of the expert's action.
@@ -119,9 +122,6 @@ class RCAL(OfflineAlgorithm):
         # Sparsity of the implied reward.
         sparsity = self.implied_reward(q, q_next, batch.actions, batch.dones).abs().mean()
 
-        loss = classification + self.reward_weight * sparsity
-        self.policy.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.policy.optimizer.step()
         self._record("train/classification_loss", classification)
         self._record("train/reward_sparsity", sparsity)
+        return classification + self.reward_weight * sparsity
