@@ -4,6 +4,7 @@ from sb3_mbil.avril import AVRIL
 from sb3_mbil.bc import BC
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory, as_demonstrations, load_demonstrations
 from sb3_mbil.common.heldout import ValidationCallback, split_blocks
+from sb3_mbil.common.lockstep import learn_lockstep, train_seeds
 from sb3_mbil.dsfn import DSFN
 from sb3_mbil.edm import EDM
 from sb3_mbil.export import export_policy
@@ -37,6 +38,8 @@ __all__ = [
     "__version__",
     "as_demonstrations",
     "export_policy",
+    "learn_lockstep",
     "load_demonstrations",
     "split_blocks",
+    "train_seeds",
 ]

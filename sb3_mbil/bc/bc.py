@@ -9,7 +9,6 @@ from stable_baselines3.common.type_aliases import GymEnv, Schedule
 
 from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.losses import (
-    bc_heads,
     bc_loss,
     check_discrete_weight,
     check_logit_penalty,
@@ -126,9 +125,13 @@ class BC(OfflineAlgorithm):
         # s + sigma * std(s) * eps, the expert's action kept
         return PairSamples(batch.observations + self.observation_noise * self._obs_scale * noise, batch.actions)
 
-    def _batch_loss(self, batch: PairSamples) -> th.Tensor:
-        heads = bc_heads(self.policy, batch.observations, self._bc_kind)
+    def _policy_inputs(self, batch: PairSamples) -> th.Tensor:
+        return batch.observations
 
+    def _raw_heads(self) -> bool:
+        return self._bc_kind == "tanh_nll"  # the squashed Gaussian's likelihood is written in its pre-squash parameters
+
+    def _loss_from_heads(self, batch: PairSamples, heads: tuple[th.Tensor, ...]) -> th.Tensor:
         # BC term: L_BC(pi, D).
         loss = bc_loss(self.policy, heads, batch.actions, self._bc_kind)
         self._record("train/bc_loss", loss)

@@ -512,19 +512,35 @@ class OfflineAlgorithm(BaseAlgorithm):
 
     def _draw_batch(self) -> Any:
         """Every random draw of one update and every per-model tensor its loss reads (the minibatch's rows, their
-        cached targets), as a tuple of tensors (``None`` for an unused field)."""
+        cached targets), as a (named) tuple of tensors (``None`` for an unused field)."""
         raise NotImplementedError
 
     def _batch_loss(self, batch: Any) -> th.Tensor:
-        """The update's loss from :meth:`_draw_batch`'s batch: a function of the policy's parameters and the batch
-        only (no random draw, no other model's state), so that seeds can evaluate it on stacked parameters."""
+        """The update's loss from :meth:`_draw_batch`'s batch: the policy's outputs at :meth:`_policy_inputs` (one
+        forward pass), then :meth:`_loss_from_heads`."""
+        inputs = self._policy_inputs(batch)
+        heads = self.policy.raw_heads(inputs) if self._raw_heads() else self.policy.heads(inputs)
+        return self._loss_from_heads(batch, heads)
+
+    def _policy_inputs(self, batch: Any) -> th.Tensor:
+        """The states the update evaluates the policy at, in one tensor (one forward pass)."""
+        raise NotImplementedError
+
+    def _raw_heads(self) -> bool:
+        """True when the loss reads the policy's :meth:`~ImitationPolicy.raw_heads` (a tanh-Gaussian's likelihood)."""
+        return False
+
+    def _loss_from_heads(self, batch: Any, heads: tuple[th.Tensor, ...]) -> th.Tensor:
+        """The loss from the batch and the policy's outputs at :meth:`_policy_inputs`: it reads no parameter, no
+        random draw and no per-model state, so that seeds can evaluate it at once on their stacked outputs."""
         raise NotImplementedError
 
     def supports_lockstep(self) -> bool:
         """True when the update is :meth:`_draw_batch` and :meth:`_batch_loss` on the policy's optimiser alone, so that
         several seeds can train as one batched network (:func:`sb3_mbil.learn_lockstep`)."""
-        return type(self)._batch_loss is not OfflineAlgorithm._batch_loss and \
-            type(self)._train_step is OfflineAlgorithm._train_step
+        return type(self)._loss_from_heads is not OfflineAlgorithm._loss_from_heads and \
+            type(self)._train_step is OfflineAlgorithm._train_step and \
+            type(self)._batch_loss is OfflineAlgorithm._batch_loss
 
     # ------------------------------------------------------------------ learn
     def learn(
@@ -638,12 +654,14 @@ class OfflineAlgorithm(BaseAlgorithm):
             self._train_stats = {}
         first = None
         for key, items in window.items():
-            values = th.stack([v.reshape(()) for _, v in items])
+            # an entry is (step, value), or (first step, values of consecutive steps) from a lockstep run
+            values = th.cat([v.reshape(-1) for _, v in items])
             finite = th.isfinite(values)
             if not bool(finite.all()):
                 i = int((~finite).nonzero()[0])
-                if first is None or items[i][0] < first[0]:
-                    first = (items[i][0], key, float(values[i]))
+                steps = [s + k for s, v in items for k in range(v.numel())]
+                if first is None or steps[i] < first[0]:
+                    first = (steps[i], key, float(values[i]))
             total, count = self._train_stats.get(key, (0.0, 0))
             self._train_stats[key] = (total + values.sum(), count + len(values))
         if first is not None:

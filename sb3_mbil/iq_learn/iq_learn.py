@@ -147,9 +147,12 @@ class IQLearn(OfflineAlgorithm):
     def _draw_batch(self) -> TransitionSamples:
         return self.sample(self.expert_transitions())
 
-    def _batch_loss(self, batch: TransitionSamples) -> th.Tensor:
+    def _policy_inputs(self, batch: TransitionSamples) -> th.Tensor:
+        return th.cat([batch.observations, batch.next_observations])
+
+    def _loss_from_heads(self, batch: TransitionSamples, heads: tuple[th.Tensor, ...]) -> th.Tensor:
         """Discrete: the IQ loss of the soft Q-function that is the policy's logits."""
-        q_all, q_all_next = self.policy.logits(th.cat([batch.observations, batch.next_observations])).chunk(2)
+        q_all, q_all_next = heads[0].chunk(2)
         q = q_at(q_all, batch.actions)
         v = soft_q(q_all, self.temperature)[1]
         v_next = soft_q(q_all_next, self.temperature)[1]

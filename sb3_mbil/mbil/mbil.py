@@ -351,10 +351,14 @@ class MBIL(OfflineAlgorithm):
         return (pairs.observations[i], pairs.actions[i], tuples.next_observations[j], tuples.next_actions[j],
                 self._targets[j])
 
-    def _batch_loss(self, batch: tuple[th.Tensor, ...]) -> th.Tensor:
-        states, actions, next_states, next_actions, targets = batch
+    def _policy_inputs(self, batch: tuple[th.Tensor, ...]) -> th.Tensor:
         # pi at the expert states s (BC term) and next states s' (balance term), in one forward pass
-        heads_s, heads_next = self._heads_at(states, next_states)
+        return th.cat([batch[0], batch[2]])
+
+    def _loss_from_heads(self, batch: tuple[th.Tensor, ...], heads: tuple[th.Tensor, ...]) -> th.Tensor:
+        states, actions, next_states, next_actions, targets = batch
+        n = len(states)
+        heads_s, heads_next = [h[:n] for h in heads], [h[n:] for h in heads]
         loss = th.zeros((), device=self.device)
 
         # Balance term: E[(log P(s',a'|s,a) - log T(s'|s,a) - log pi(a'|s'))^2], the first two cached per tuple.
@@ -375,9 +379,3 @@ class MBIL(OfflineAlgorithm):
     @property
     def _no_rows(self) -> th.Tensor:
         return th.zeros(0, dtype=th.long, device=self.device)
-
-    def _heads_at(self, states: th.Tensor, next_states: th.Tensor) -> tuple[list[th.Tensor], list[th.Tensor]]:
-        """The policy's outputs at two sets of states, from one forward pass over both."""
-        heads = self.policy.heads(th.cat([states, next_states]))
-        n = len(states)
-        return [h[:n] for h in heads], [h[n:] for h in heads]

@@ -278,30 +278,28 @@ class MBILC(BalanceModels, OfflineAlgorithm):
         discrete_kl = self.policy.discrete and self._divergence == "kl"
         records_terms = fused and self.num_timesteps % 10 == 0  # the fused loss's two terms, every 10th update
         balance = self.alpha > 0 and not fused
-
-        def rows(field, index, used=True):
-            if not used or field is None:
-                return None
-            return tuple(f[index] for f in field) if isinstance(field, tuple) else field[index]
-
+        with_probs = (balance and discrete_kl) or records_terms
+        balance_labels = use_model and self.model_labels == "balance"
         return Draws(
             states=pairs.observations[i], actions=pairs.actions[i],
-            soft_labels=rows(targets.soft_labels, i, fused),
-            weight=rows(targets.weight, i, balance or records_terms),
-            probs=rows(targets.probs, i, (balance and discrete_kl) or records_terms),
-            neg_entropy=rows(targets.neg_entropy, i, (balance and discrete_kl) or records_terms),
-            data=rows(targets.data, i, balance and not discrete_kl),
-            model_states=rows(targets.states, j, use_model),
-            model=rows(targets.model, j, use_model and self.model_labels == "balance"),
-            model_actions=rows(targets.model_actions, j, use_model and self.model_labels == "corrective"),
-            orphan_states=rows(targets.orphan_states, k, use_orphans),
-            orphan_target=rows(targets.orphan_target, k, use_orphans),
+            soft_labels=targets.soft_labels[i] if fused else None,
+            weight=targets.weight[i] if balance or records_terms else None,
+            probs=targets.probs[i] if with_probs else None,
+            neg_entropy=targets.neg_entropy[i] if with_probs else None,
+            data=tuple(d[i] for d in targets.data) if balance and not discrete_kl else None,
+            model_states=targets.states[j] if use_model else None,
+            model=tuple(d[j] for d in targets.model) if balance_labels else None,
+            model_actions=targets.model_actions[j] if use_model and not balance_labels else None,
+            orphan_states=targets.orphan_states[k] if use_orphans else None,
+            orphan_target=tuple(d[k] for d in targets.orphan_target) if use_orphans else None,
             inner_share=th.tensor(targets.inner_share, device=self.device) if use_orphans else None,
         )
 
-    def _batch_loss(self, draws: Draws) -> th.Tensor:
+    def _policy_inputs(self, draws: Draws) -> th.Tensor:
         states = [draws.states, *(s for s in (draws.model_states, draws.orphan_states) if s is not None)]
-        heads = self.policy.heads(th.cat(states) if len(states) > 1 else states[0])  # one forward pass
+        return th.cat(states) if len(states) > 1 else states[0]  # one forward pass
+
+    def _loss_from_heads(self, draws: Draws, heads: tuple[th.Tensor, ...]) -> th.Tensor:
         n = len(draws.states)
         n_model = len(draws.model_states) if draws.model_states is not None else 0
         heads_s = [h[:n] for h in heads]
@@ -324,7 +322,10 @@ class MBILC(BalanceModels, OfflineAlgorithm):
     def _fused_loss(self, draws: Draws, heads: list[th.Tensor]) -> th.Tensor:
         """beta * L_BC + alpha * KL at the data = CE(soft labels, pi) + const (the same gradient, one op), plus the
         logit penalty; its two terms are recomputed without gradient every 10th update."""
-        loss = th.nn.functional.cross_entropy(heads[0], draws.soft_labels)
+        # torch's cross-entropy with probability targets, written out as ATen computes it (the same bits): vmap has
+        # no fast rule for the fused op, and seeds in lockstep evaluate this loss under vmap
+        logits = heads[0]
+        loss = -(th.log_softmax(logits, dim=1) * draws.soft_labels).sum() / (logits.numel() // logits.shape[1])
         if self.logit_penalty > 0:
             loss = loss + self.logit_penalty * logit_penalty(heads)
         self._record("train/loss", loss)

@@ -109,8 +109,11 @@ class RCAL(OfflineAlgorithm):
     def _draw_batch(self) -> TransitionSamples:
         return self.sample(self.expert_transitions())
 
-    def _batch_loss(self, batch: TransitionSamples) -> th.Tensor:
-        q, q_next = self.policy.logits(th.cat([batch.observations, batch.next_observations])).chunk(2)
+    def _policy_inputs(self, batch: TransitionSamples) -> th.Tensor:
+        return th.cat([batch.observations, batch.next_observations])
+
+    def _loss_from_heads(self, batch: TransitionSamples, heads: tuple[th.Tensor, ...]) -> th.Tensor:
+        q, q_next = heads[0].chunk(2)  # Q(s, .) and Q(s', .) are the policy's logits
 
         # Classification of the expert's action.
         if self.classification_loss == "cross_entropy":
