@@ -42,6 +42,10 @@ def main(argv=None):
     p.add_argument("--address", default=None, help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=positive_int, default=None, help="local Ray: CPUs to use")
     p.add_argument("--local", action="store_true", help="run without Ray, one run after the other")
+    p.add_argument("--lockstep", action="store_true",
+                   help="train the seeds of each (algo, env, N) cell in one process as one batched network "
+                        "(sb3_mbil.learn_lockstep; BC, MBIL, MBIL-C, RCAL, IQ-Learn on Discrete actions; each seed's "
+                        "row as its own run's, train_seconds the cell's share); the other algorithms run seed by seed")
     a = p.parse_args(argv)
     check_appendable(a.csv, "--csv")
     if a.pool is not None and len(a.envs) != 1:
@@ -66,9 +70,10 @@ def main(argv=None):
         n = reuse_rows(grid, a.csv, a.reuse, a.episodes, a.overrides, pool=pool, protocol=a.protocol)
         print(f"{n} rows reused from {a.reuse}")
     if a.local:
-        n = run_local(grid, a.csv, a.episodes, a.overrides, pool=pool, protocol=a.protocol)
+        n = run_local(grid, a.csv, a.episodes, a.overrides, pool=pool, protocol=a.protocol, lockstep=a.lockstep)
     else:
-        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus, pool=pool, protocol=a.protocol)
+        n = run_ray(grid, a.csv, a.episodes, a.overrides, a.address, a.num_cpus, pool=pool, protocol=a.protocol,
+                    lockstep=a.lockstep)
     print(f"{n} runs done now; results in {a.csv}")
 
 

@@ -165,18 +165,55 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     """
     import torch as th
 
-    from sb3_mbil import ALGORITHMS
-    from benchmarks.harness.protocol import demonstrations_for
-    from sb3_mbil.common.evaluation import evaluate
-
     th.set_num_threads(1)
+    t0 = time.perf_counter()
+    model, steps = _build(run, overrides, pool, protocol)
+    model.learn(steps)
+    return _result_row(run, model, steps, time.perf_counter() - t0, n_episodes, overrides, commit, n_eval_envs, pool,
+                       protocol)
+
+
+def run_cell_lockstep(runs: list[Run], n_episodes: int = 300, overrides: dict[str, dict[str, Any]] | None = None,
+                      commit: str | None = None, n_eval_envs: int = 20, pool: str | None = None,
+                      protocol: str = "full") -> list[dict[str, Any]]:
+    """The seeds of one (algo, env, N) cell trained in lockstep (:func:`sb3_mbil.learn_lockstep`: one batched network,
+    each seed's policy bit for bit its separate run's), then evaluated one by one: the rows :func:`run_one` gives, but
+    ``train_seconds`` is the cell's training time divided among its seeds. An algorithm that cannot train in lockstep
+    (AVRIL, EDM, DSFN, ValueDICE, ODICE, IQ-Learn on Box actions) runs its seeds one after the other."""
+    import torch as th
+
+    from sb3_mbil import learn_lockstep
+
+    if len({(r.algo, r.env, r.n_trajectories) for r in runs}) > 1:
+        raise ValueError(f"runs: expected the seeds of one (algo, env, N) cell, found {sorted({r.key()[:3] for r in runs})}")
+    th.set_num_threads(1)
+    t0 = time.perf_counter()
+    built = [_build(run, overrides, pool, protocol) for run in runs]
+    models, steps = [m for m, _ in built], built[0][1]
+    if not models[0].supports_lockstep():
+        return [run_one(run, n_episodes, overrides, commit, n_eval_envs, pool, protocol) for run in runs]
+    learn_lockstep(models, steps)
+    share = (time.perf_counter() - t0) / len(runs)
+    return [_result_row(run, model, steps, share, n_episodes, overrides, commit, n_eval_envs, pool, protocol)
+            for run, model in zip(runs, models)]
+
+
+def _build(run: Run, overrides, pool, protocol):
+    """The run's model, built right before it trains (its seed's state is its training stream's start), and its
+    number of gradient steps."""
+    from benchmarks.harness.protocol import demonstrations_for
+    from sb3_mbil import ALGORITHMS
+
     settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
     demos = demonstrations_for(run.algo, run.env, run.n_trajectories, run.seed, protocol, pool)
-    t0 = time.perf_counter()
-    model = ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings)
-    model.learn(steps)
-    train_seconds = time.perf_counter() - t0
+    return ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings), steps
+
+
+def _result_row(run: Run, model, steps: int, train_seconds: float, n_episodes: int, overrides, commit, n_eval_envs: int,
+                pool, protocol) -> dict[str, Any]:
+    from sb3_mbil.common.evaluation import evaluate
+
     returns = evaluate(model, run.env, n_episodes, seed=1_000_000 + run.seed, n_envs=n_eval_envs)
     diagnostics = model.diagnostics()
     fit_seconds = diagnostics.pop("fit_seconds", 0.0)

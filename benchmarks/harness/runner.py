@@ -17,6 +17,7 @@ from benchmarks.harness.grid import (
     Run,
     check_grid_settings,
     git_commit,
+    run_cell_lockstep,
     run_one,
     settings_column,
 )
@@ -67,22 +68,39 @@ def reuse_rows(runs: list[Run], csv_path: str, source: str, n_episodes: int = 30
 
 
 def run_local(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
-              pool: str | dict[str, str] | None = None, protocol: str = "full") -> int:
-    """Without Ray, one run after the other (for debugging)."""
+              pool: str | dict[str, str] | None = None, protocol: str = "full", lockstep: bool = False) -> int:
+    """Without Ray, one run after the other (``lockstep``: one cell after the other, its seeds in lockstep)."""
     todo, commit = pending(runs, csv_path), git_commit()
     check_grid_settings(todo, csv_path, overrides, pool, protocol)
     add_columns(csv_path, RESULT_COLUMNS)  # a file from before a column keeps its rows and gains the column
-    for run in todo:
-        row = run_one(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol)
-        append_row(csv_path, row, RESULT_COLUMNS)
-        logger.info("%s", row)
+    for group in (cells(todo) if lockstep else [[run] for run in todo]):
+        if lockstep:
+            rows = run_cell_lockstep(group, n_episodes, overrides, commit, pool=_pool(pool, group[0]), protocol=protocol)
+        else:
+            rows = [run_one(group[0], n_episodes, overrides, commit, pool=_pool(pool, group[0]), protocol=protocol)]
+        for row in rows:
+            append_row(csv_path, row, RESULT_COLUMNS)
+            logger.info("%s", row)
     return len(todo)
+
+
+def cells(runs: list[Run]) -> list[list[Run]]:
+    """The runs grouped by (algo, env, N) cell, in the order the cells first appear."""
+    groups: dict[tuple, list[Run]] = {}
+    for run in runs:
+        groups.setdefault((run.algo, run.env, run.n_trajectories), []).append(run)
+    return list(groups.values())
+
+
+def _one_row(*args, **kwargs) -> list[dict[str, Any]]:
+    return [run_one(*args, **kwargs)]
 
 
 def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: dict[str, Any] | None = None,
             address: str | None = None, num_cpus: int | None = None, pool: str | dict[str, str] | None = None,
-            protocol: str = "full") -> int:
-    """The grid as Ray tasks; returns the number of runs done now."""
+            protocol: str = "full", lockstep: bool = False) -> int:
+    """The grid as Ray tasks (``lockstep``: a task per (algo, env, N) cell, its seeds in lockstep); returns the number
+    of runs done now."""
     import ray
 
     todo, commit = pending(runs, csv_path), git_commit()
@@ -99,23 +117,29 @@ def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: di
     else:
         ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False, runtime_env=runtime_env,
                  log_to_driver=False)
-    task = ray.remote(num_cpus=1, max_retries=1)(run_one)
-    futures = {task.remote(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol): run
-               for run in todo}
+    if lockstep:
+        task = ray.remote(num_cpus=1, max_retries=1)(run_cell_lockstep)
+        futures = {task.remote(group, n_episodes, overrides, commit, pool=_pool(pool, group[0]), protocol=protocol): group
+                   for group in cells(todo)}
+    else:
+        task = ray.remote(num_cpus=1, max_retries=1)(_one_row)
+        futures = {task.remote(run, n_episodes, overrides, commit, pool=_pool(pool, run), protocol=protocol): [run]
+                   for run in todo}
     done = 0
     try:
         while futures:
             ready, _ = ray.wait(list(futures), num_returns=1)
-            run = futures.pop(ready[0])
+            group = futures.pop(ready[0])
             try:
-                row = ray.get(ready[0])
-            except Exception as e:  # one failed run must not lose the others
-                logger.error("run %s failed: %s", run, e)
+                rows = ray.get(ready[0])
+            except Exception as e:  # one failed run (or cell) must not lose the others
+                logger.error("run %s failed: %s", group if len(group) > 1 else group[0], e)
                 continue
-            append_row(csv_path, row, RESULT_COLUMNS)
-            done += 1
-            logger.info("[%d/%d] %s %s N=%d seed=%d: %.1f", done, len(todo), run.algo, run.env, run.n_trajectories,
-                        run.seed, row["mean_return"])
+            for run, row in zip(group, rows):
+                append_row(csv_path, row, RESULT_COLUMNS)
+                done += 1
+                logger.info("[%d/%d] %s %s N=%d seed=%d: %.1f", done, len(todo), run.algo, run.env,
+                            run.n_trajectories, run.seed, row["mean_return"])
     finally:
         ray.shutdown()
     return done

@@ -115,6 +115,27 @@ def test_ray_grid(tmp_path):
     assert run_ray(grid, str(out), n_episodes=2, overrides=TINY, num_cpus=1) == 2
     assert {r["algo"] for r in rows_of(out)} == {"mbil", "bc"}
     assert float(rows_of(out)[0]["mean_return"]) > 0
+    # the same grid with a cell per task, its seeds in lockstep: the same rows
+    lockstep = tmp_path / "lockstep.csv"
+    assert run_ray(grid, str(lockstep), n_episodes=2, overrides=TINY, num_cpus=1, lockstep=True) == 2
+    key = lambda r: (r["algo"], r["seed"])  # noqa: E731
+    assert [(key(r), r["mean_return"]) for r in sorted(rows_of(lockstep), key=key)] == \
+        [(key(r), r["mean_return"]) for r in sorted(rows_of(out), key=key)]
+
+
+def test_lockstep_grid_gives_each_seed_its_own_runs_row(tmp_path):
+    tiny = {**TINY, "mbil_c": {"n_timesteps": 200, "model_max_steps": 30}, "bc": {"n_timesteps": 200},
+            "dsfn": {"warm_start_steps": 20, "dqn_steps": 10, "sf_steps": 10, "max_iterations": 1}}
+    grid = make_grid(["bc", "mbil_c", "dsfn"], ["CartPole-v1"], [1, 2], [0, 1, 2])
+    separate, lockstep = tmp_path / "separate.csv", tmp_path / "lockstep.csv"
+    assert run_local(grid, str(separate), n_episodes=3, overrides=tiny) == 18
+    assert run_local(grid[:4], str(lockstep), n_episodes=3, overrides=tiny, lockstep=True) == 4  # resumes, too
+    assert run_local(grid, str(lockstep), n_episodes=3, overrides=tiny, lockstep=True) == 14
+    assert list(rows_of(lockstep)[0]) == RESULT_COLUMNS
+    same = ("mean_return", "std_return", "n_episodes", "gradient_steps", "settings", "protocol")
+    key = lambda r: (r["algo"], r["n_trajectories"], r["seed"])  # noqa: E731
+    assert [(key(r), [r[c] for c in same]) for r in sorted(rows_of(lockstep), key=key)] == \
+        [(key(r), [r[c] for c in same]) for r in sorted(rows_of(separate), key=key)]
 
 
 def test_report(tmp_path):
