@@ -148,7 +148,9 @@ def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories
 
 def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int) -> dict[str, str]:
     """Per algorithm, the variant with the highest mean return over the tuning rows of (env, pool, N); only variants
-    with as many seeds as the most-run one compete (a variant still running is not picked on fewer seeds)."""
+    with as many seeds as the most-run one compete (a variant still running is not picked on fewer seeds). A tie (at
+    a ceiling, e.g. CartPole-v1's 500) goes to the algorithm's zoo entry (the variant named after it), then to the
+    variant that ran first."""
     scores: dict[str, list[float]] = {}
     for r in rows:
         if (r["env"], r["pool"], int(r["n_trajectories"])) == (env_id, pool, n_trajectories):
@@ -161,8 +163,9 @@ def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int)
     for name, values in scores.items():
         if len(values) == most and name in table:
             algo = table[name].algo
-            if algo not in best or np.mean(values) > best[algo][0]:
-                best[algo] = (float(np.mean(values)), name)
+            mean = float(np.mean(values))
+            if algo not in best or mean > best[algo][0] or (mean == best[algo][0] and name == algo):
+                best[algo] = (mean, name)
     return {algo: name for algo, (_, name) in best.items()}
 
 

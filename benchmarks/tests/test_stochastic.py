@@ -1,0 +1,22 @@
+"""The stochastic-demonstrator study's choice of each algorithm's tuned variant (BC* and the others)."""
+
+from benchmarks.stochastic import best_variants
+
+
+def rows(*entries):
+    return [{"env": "CartPole-v1", "pool": "CartPole-v1-sampled", "n_trajectories": "3", "variant": v,
+             "mean_return": str(r)} for v, r in entries]
+
+
+def test_the_best_mean_wins_and_a_tie_goes_to_the_zoo_entry():
+    tied = rows(("bc_es", 500.0), ("bc_es", 500.0), ("bc", 500.0), ("bc", 500.0), ("bc_wd0", 480.0), ("bc_wd0", 499.0),
+                ("mbil_c_es", 500.0), ("mbil_c_es", 500.0), ("mbil_c_wd0.001", 500.0), ("mbil_c_wd0.001", 500.0))
+    # BC: the zoo entry wins the tie at the ceiling whatever order the rows ran in; MBIL-C (no zoo entry among the
+    # tied): the first to have run
+    assert best_variants(tied, "CartPole-v1", "CartPole-v1-sampled", 3) == {"bc": "bc", "mbil_c": "mbil_c_es"}
+    better = rows(("bc", 480.0), ("bc_es", 490.0))
+    assert best_variants(better, "CartPole-v1", "CartPole-v1-sampled", 3) == {"bc": "bc_es"}
+    # a variant with fewer finished seeds does not compete
+    running = rows(("bc", 400.0), ("bc", 400.0), ("bc_es", 500.0))
+    assert best_variants(running, "CartPole-v1", "CartPole-v1-sampled", 3) == {"bc": "bc"}
+    assert best_variants(running, "CartPole-v1", "CartPole-v1-sampled", 1) == {}
