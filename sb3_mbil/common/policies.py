@@ -42,19 +42,20 @@ class StackedLinear(th.autograd.Function):
     gradient is one ``bmm`` (exact on every shape measured)."""
 
     @staticmethod
-    def forward(x: th.Tensor, weight: th.Tensor, bias: th.Tensor) -> th.Tensor:
-        return th.stack([th.addmm(bias[i], x[i], weight[i].t()) for i in range(len(x))])
-
-    @staticmethod
-    def setup_context(ctx, inputs, output) -> None:
-        x, weight, _ = inputs
+    def forward(ctx, x: th.Tensor, weight: th.Tensor, bias: th.Tensor) -> th.Tensor:
         ctx.save_for_backward(x, weight)
+        out = x.new_empty(x.shape[0], x.shape[1], weight.shape[1])
+        for o, b, xi, wt in zip(out.unbind(), bias.unbind(), x.unbind(), weight.transpose(1, 2).unbind()):
+            th.addmm(b, xi, wt, out=o)
+        return out
 
     @staticmethod
     def backward(ctx, grad: th.Tensor):
         x, weight = ctx.saved_tensors
         grad_x = th.bmm(grad, weight) if ctx.needs_input_grad[0] else None
-        grad_weight = th.stack([grad[i].t().mm(x[i]) for i in range(len(x))]) if ctx.needs_input_grad[1] else None
+        grad_weight = None
+        if ctx.needs_input_grad[1]:
+            grad_weight = th.stack([gi.t().mm(xi) for gi, xi in zip(grad.unbind(), x.unbind())])
         grad_bias = grad.sum(1) if ctx.needs_input_grad[2] else None
         return grad_x, grad_weight, grad_bias
 
