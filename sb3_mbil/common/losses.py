@@ -61,6 +61,8 @@ def bc_loss(policy: ImitationPolicy, heads: Sequence[th.Tensor], actions: th.Ten
     if kind == "tanh_nll":
         return -tanh_gaussian_log_prob(policy, heads, actions).mean()
     if kind == "nll":
+        if log_prob is None and policy.discrete:  # torch's fused op: the same gradient, bit for bit, in fewer ops
+            return th.nn.functional.cross_entropy(heads[0], actions.long().view(-1))
         return -(policy.log_prob_from_heads(heads, actions) if log_prob is None else log_prob).mean()
     return (heads[0] - actions.view_as(heads[0])).pow(2).mean()
 

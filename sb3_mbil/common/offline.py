@@ -487,6 +487,14 @@ class OfflineAlgorithm(BaseAlgorithm):
         """The optimisers that follow the learning-rate schedule (extend with an algorithm's own)."""
         return [self.policy.optimizer]
 
+    def _update_learning_rate(self, optimizers: list[th.optim.Optimizer] | th.optim.Optimizer) -> None:
+        """SB3's: the schedule's value set on every optimiser and logged (read once per update, not twice)."""
+        lr = self.lr_schedule(self._current_progress_remaining)
+        self.logger.record("train/learning_rate", lr)
+        for optimizer in optimizers if isinstance(optimizers, list) else [optimizers]:
+            for group in optimizer.param_groups:
+                group["lr"] = lr
+
     def training_complete(self) -> bool:
         """True when the method has nothing left to do (an algorithm with a finite schedule); ``learn`` then returns."""
         return False

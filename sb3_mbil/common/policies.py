@@ -161,7 +161,8 @@ class ImitationPolicy(BasePolicy):
     def features(self, obs: th.Tensor) -> th.Tensor:
         """The network's input: flat observations, standardised when ``normalize_observations`` (other networks
         of an algorithm, e.g. its critics, read the same input)."""
-        features = self.extract_features(obs, self.features_extractor)
+        # SB3's extract_features for a Box space and the fixed FlattenExtractor, without its two calls' overhead
+        features = obs.float().flatten(1)
         if self.normalize_observations:
             features = ((features - self.obs_mean) / self.obs_std).clamp(-self.OBS_CLIP, self.OBS_CLIP)
         return features
