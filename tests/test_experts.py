@@ -302,6 +302,7 @@ def test_pools_of_sampled_actions_by_selector():
         load_demonstrations("NoSuchEnv-v0", actions="sampled")
 
 
+@pytest.mark.slow  # zoo training in subprocesses, 20-40 s each: run by CI with -m slow
 def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypatch):
     """An interrupted run (checkpoint + replay buffer, no final model) continues with rl_zoo3's -i."""
     import json
@@ -328,6 +329,7 @@ def test_interrupted_zoo_training_resumes_from_its_checkpoint(tmp_path, monkeypa
     assert expert.source == "zoo:dqn seed=0"
 
 
+@pytest.mark.slow  # zoo training in subprocesses, 20-40 s each: run by CI with -m slow
 def test_late_hyperparameters_take_over_at_their_checkpoints(tmp_path, monkeypatch):
     """``late_hyperparams=((steps, {name: value}), ...)``: each run stops at the checkpoint of the next switch and the
     training continues from it with that switch's settings added to the earlier ones; a session that ends between two
@@ -499,6 +501,7 @@ def test_another_algorithms_training_settings_reach_the_zoo(monkeypatch):
     assert generate.expert_spec("Ant-v4").algo == "td3" and generate.expert_spec("CartPole-v1", "ppo") is None
 
 
+@pytest.mark.slow  # zoo training in subprocesses, 20-40 s each: run by CI with -m slow
 def test_a_refused_run_that_stopped_early_continues_on_its_budget(tmp_path, monkeypatch):
     """Acceptance refused the model a stop check passed (Walker2d-v4: 20 of 20 episodes to the time limit, then 91%
     of 100): the run continues from its checkpoint on the remaining budget instead of starting a new seed."""
