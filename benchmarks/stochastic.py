@@ -132,13 +132,55 @@ def train_variant(variant: Variant, env_id: str, demos, seed: int) -> tuple[Any,
     return (models[0] if len(models) == 1 else EnsemblePolicy(models)), best_step
 
 
+def train_variant_lockstep(variant: Variant, env_id: str, draws: dict[int, Any]) -> dict[int, tuple[Any, int | None]]:
+    """:func:`train_variant` for several seeds (``draws``: seed -> its data) at once: every seed's models (and every
+    ensemble member) trained in lockstep (:func:`sb3_mbil.learn_lockstep`), each bit for bit its separate run, early
+    stopping's callback one per model. An algorithm that cannot train in lockstep trains seed by seed."""
+    from sb3_mbil import learn_lockstep
+
+    settings = tuned_settings(variant.algo, env_id, variant.settings)
+    steps = int(float(settings.pop("n_timesteps")))
+    members = [(seed, j) for seed in draws for j in range(variant.ensemble)]
+    models = [ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=draws[seed], seed=seed + 10_000 * j, **settings)
+              for seed, j in members]
+    if not models[0].supports_lockstep():
+        return {seed: train_variant(variant, env_id, demos, seed) for seed, demos in draws.items()}
+    callbacks = [ValidationCallback(holdout_fraction=0.2, eval_freq=500, block_length=50, monitor="bc_loss",
+                                    restore_best=True, seed=seed) if variant.early_stop else None for seed, _ in members]
+    learn_lockstep(models, steps, callbacks=callbacks)
+    out = {}
+    for seed in draws:
+        mine = [k for k, (s, _) in enumerate(members) if s == seed]
+        best_step = callbacks[mine[-1]].best_step if variant.early_stop else None  # the last member's, as train_variant
+        group = [models[k] for k in mine]
+        out[seed] = (group[0] if len(group) == 1 else EnsemblePolicy(group)), best_step
+    return out
+
+
 def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seed: int,
              n_episodes: int, commit: str) -> dict[str, Any]:
     th.set_num_threads(1)
     demos = draw(env_id, pool, n_trajectories, seed)
     t0 = time.perf_counter()
     policy, best_step = train_variant(variant, env_id, demos, seed)
-    train_seconds = time.perf_counter() - t0
+    return _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, time.perf_counter() - t0,
+                n_episodes, commit)
+
+
+def run_cell_lockstep(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seeds: list[int],
+                      n_episodes: int, commit: str) -> list[dict[str, Any]]:
+    """:func:`run_cell` for several seeds, trained in lockstep; each seed's row is its own run's, but
+    ``train_seconds`` is the seeds' training time divided among them."""
+    th.set_num_threads(1)
+    draws = {seed: draw(env_id, pool, n_trajectories, seed) for seed in seeds}
+    t0 = time.perf_counter()
+    trained = train_variant_lockstep(variant, env_id, draws)
+    share = (time.perf_counter() - t0) / len(seeds)
+    return [_row(name, variant, env_id, pool, n_trajectories, seed, *trained[seed], share, n_episodes, commit)
+            for seed in seeds]
+
+
+def _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, train_seconds, n_episodes, commit):
     returns = evaluate(policy, env_id, n_episodes, seed=1_000_000 + seed, n_envs=20)
     return {"variant": name, "algo": variant.algo, "env": env_id, "pool": pool, "n_trajectories": n_trajectories,
             "seed": seed, "mean_return": float(returns.mean()), "std_return": float(returns.std()),
@@ -171,11 +213,13 @@ def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int)
 
 def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
         n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None,
-        tuned_algos: list[str] | None = None) -> None:
+        tuned_algos: list[str] | None = None, lockstep: bool = False) -> None:
     """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run.
 
     ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
-    tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants.
+    tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants. ``lockstep``:
+    the pending seeds of each (variant, pool, N) train together (:func:`run_cell_lockstep`), cell after cell; the
+    rows are the same.
     """
     from benchmarks.harness.results import read_result_rows
 
@@ -186,23 +230,36 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
     tuning = read_result_rows(tuned_from) if tuned_from else []
     done = finished_keys(csv_path, KEY)
     commit = git_commit()
+
+    def names(pool: str, n: int) -> list[str]:
+        best = best_variants(tuning, env_id, tuning_pool or pool, n) if tuned_from else {}
+        if tuned_algos is not None:
+            best = {algo: name for algo, name in best.items() if algo in tuned_algos}
+        if tuned_from and not best:
+            raise ValueError(f"tuned_from: expected tuning rows of {env_id}, {tuning_pool or pool}, N={n} in "
+                             f"{tuned_from}, found none")
+        return list(dict.fromkeys([*variants, *best.values()]))
+
+    def report(row: dict) -> None:
+        append_rows(csv_path, [row], COLUMNS)
+        print(f"{row['variant']} {env_id} {row['pool']} N={row['n_trajectories']} seed={row['seed']}: "
+              f"{row['mean_return']:.1f} ({row['train_seconds']} s)", flush=True)
+
+    if lockstep:
+        for pool in pools:
+            for n in n_trajectories:
+                for name in names(pool, n):
+                    todo = [seed for seed in seeds if (name, env_id, pool, str(n), str(seed)) not in done]
+                    if todo:
+                        for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit):
+                            report(row)
+        return
     for seed in seeds:
         for pool in pools:
             for n in n_trajectories:
-                best = best_variants(tuning, env_id, tuning_pool or pool, n) if tuned_from else {}
-                if tuned_algos is not None:
-                    best = {algo: name for algo, name in best.items() if algo in tuned_algos}
-                if tuned_from and not best:
-                    raise ValueError(f"tuned_from: expected tuning rows of {env_id}, {tuning_pool or pool}, N={n} in "
-                                     f"{tuned_from}, found none")
-                for name in dict.fromkeys([*variants, *best.values()]):
-                    key = (name, env_id, pool, str(n), str(seed))
-                    if key in done:
-                        continue
-                    row = run_cell(name, table[name], env_id, pool, n, seed, n_episodes, commit)
-                    append_rows(csv_path, [row], COLUMNS)
-                    print(f"{name} {env_id} {pool} N={n} seed={seed}: {row['mean_return']:.1f} "
-                          f"({row['train_seconds']} s)", flush=True)
+                for name in names(pool, n):
+                    if (name, env_id, pool, str(n), str(seed)) not in done:
+                        report(run_cell(name, table[name], env_id, pool, n, seed, n_episodes, commit))
 
 
 def main(argv=None) -> None:
@@ -217,10 +274,13 @@ def main(argv=None) -> None:
     parser.add_argument("--tuned-from", default=None, help="tuning CSV: also run each algorithm's best variant")
     parser.add_argument("--tuning-pool", default=None, help="with --tuned-from: the pool whose tuning picks them")
     parser.add_argument("--tuned-algos", nargs="+", default=None, help="with --tuned-from: only these algorithms")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="train the pending seeds of each (variant, pool, N) together (sb3_mbil.learn_lockstep; "
+                             "the same rows, cell after cell)")
     args = parser.parse_args(argv)
     variants = sorted(variants_for(args.env)) if args.variants == ["all"] else args.variants
     run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
-        args.tuning_pool, args.tuned_algos)
+        args.tuning_pool, args.tuned_algos, args.lockstep)
 
 
 if __name__ == "__main__":

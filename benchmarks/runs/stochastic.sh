@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Stochastic demonstrators on one env (rows in results/stochastic/{tuning_,crossover_,}ENV.csv; rerun to resume:
-# finished rows are skipped).
+# finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster).
 #   bash benchmarks/runs/stochastic.sh ENV tuning|grid|crossover|crossover-tuning [N ...]
 # N defaults to 1 3 (tuning, grid; LunarLander-v3's crossover) or 1 (the MuJoCo crossover).
 set -euo pipefail
@@ -18,19 +18,19 @@ bc_variants=$(python -c "from benchmarks.stochastic import variants_for; print('
 case "$stage" in
   # 1. every variant of BC, MBIL and MBIL-C on the sampled pool, tuning seeds 100-102 (the one budget)
   tuning) python -m benchmarks.stochastic --env $env --pools $env-sampled --variants all --n-trajectories ${@:-1 3} \
-            --seeds 100-102 --episodes 100 --csv results/stochastic/tuning_$env.csv;;
+            --seeds 100-102 --episodes 100 --csv results/stochastic/tuning_$env.csv --lockstep;;
   # 2. the paper's Figure 3 on the sampled pool, seeds 0-9, 300 episodes: BC, MBIL, MBIL-C and their tuned variants
   grid) python -m benchmarks.stochastic --env $env --pools $env-sampled --variants bc mbil mbil_c \
           --tuned-from results/stochastic/tuning_$env.csv --n-trajectories ${@:-1 3} --seeds 0-9 --episodes 300 \
-          --csv results/stochastic/$env.csv;;
+          --csv results/stochastic/$env.csv --lockstep;;
   # 3. the noise crossover, seeds 0-4, 100 episodes: BC, MBIL, MBIL-C at their defaults, and BC* as chosen on the
   #    sampled pool's tuning for the same N (--tuning-pool; BC's own tuning on each noise pool: crossover-tuning)
   crossover) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants bc mbil mbil_c \
                --tuned-from results/stochastic/tuning_$env.csv --tuning-pool $env-sampled --tuned-algos bc \
                --n-trajectories ${@:-$crossover_n} --seeds 0-4 --episodes 100 \
-               --csv results/stochastic/crossover_$env.csv;;
+               --csv results/stochastic/crossover_$env.csv --lockstep;;
   crossover-tuning) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants $bc_variants \
                --n-trajectories ${@:-$crossover_n} --seeds 100-102 --episodes 100 \
-               --csv results/stochastic/tuning_$env.csv;;
+               --csv results/stochastic/tuning_$env.csv --lockstep;;
   *) echo "stage: expected tuning, grid, crossover or crossover-tuning, found $stage" >&2; exit 2;;
 esac

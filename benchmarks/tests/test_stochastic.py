@@ -20,3 +20,16 @@ def test_the_best_mean_wins_and_a_tie_goes_to_the_zoo_entry():
     running = rows(("bc", 400.0), ("bc", 400.0), ("bc_es", 500.0))
     assert best_variants(running, "CartPole-v1", "CartPole-v1-sampled", 3) == {"bc": "bc"}
     assert best_variants(running, "CartPole-v1", "CartPole-v1-sampled", 1) == {}
+
+
+def test_a_cell_in_lockstep_gives_each_seed_its_own_runs_row():
+    from benchmarks.stochastic import Variant, run_cell, run_cell_lockstep
+
+    cases = {"bc_es": Variant("bc", {"n_timesteps": 1000}, early_stop=True),
+             "mbil_c_ens2": Variant("mbil_c", {"n_timesteps": 300, "model_max_steps": 30}, ensemble=2)}
+    same = ("mean_return", "std_return", "best_step", "settings", "seed")
+    for name, variant in cases.items():
+        separate = [run_cell(name, variant, "CartPole-v1", "CartPole-v1-sampled", 1, seed, 3, "test") for seed in (0, 1)]
+        lockstep = run_cell_lockstep(name, variant, "CartPole-v1", "CartPole-v1-sampled", 1, [0, 1], 3, "test")
+        assert [[r[c] for c in same] for r in lockstep] == [[r[c] for c in same] for r in separate]
+        assert all((r["best_step"] in (500, 1000)) == (name == "bc_es") for r in lockstep)
