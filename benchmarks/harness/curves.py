@@ -191,7 +191,7 @@ def run_curves(variants: dict[str, tuple[str, dict[str, Any]]], envs, seeds, csv
     if address:
         ray.init(address=address)
     else:
-        ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
+        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
     task = ray.remote(num_cpus=1, max_retries=1)(run_curve)
     futures = {task.remote(run, *args): run for run in todo}

@@ -115,7 +115,8 @@ def run_ray(runs: list[Run], csv_path: str, n_episodes: int = 300, overrides: di
     if address:
         ray.init(address=address, runtime_env=runtime_env)
     else:
-        ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False, runtime_env=runtime_env,
+        # a new local instance, never a cluster that `ray start` left on this machine (ray.init would join it)
+        ray.init(address="local", num_cpus=num_cpus or os.cpu_count(), include_dashboard=False, runtime_env=runtime_env,
                  log_to_driver=False)
     if lockstep:
         task = ray.remote(num_cpus=1, max_retries=1)(run_cell_lockstep)
