@@ -25,6 +25,7 @@ CASES = [(BC, "CartPole-v1", {}, 1000), (MBIL, "CartPole-v1", {}, 1000), (MBILC,
          (RCAL, "CartPole-v1", {}, 1000), (IQLearn, "CartPole-v1", {}, 1000),
          (BC, "Pendulum-v1", {"observation_noise": 0.1}, 300),
          (BC, "Pendulum-v1", {"bc_loss": "tanh_nll", "policy_kwargs": {"bounded_mean": True}}, 300),
+         (BC, "Pendulum-v1", {"policy_kwargs": {"normalize_observations": True, "bounded_mean": True}}, 300),
          (MBIL, "Pendulum-v1", {}, 300), (MBILC, "Pendulum-v1", {}, 300),
          (MBILC, "CartPole-v1", {"alpha_model": 0.5, "weight_decay": 1e-3, "logit_penalty": 0.1}, 300)]
 
