@@ -123,3 +123,19 @@ def test_a_non_finite_loss_in_one_seed_stops_with_its_term_and_step(cartpole_dat
     with pytest.raises(FloatingPointError, match=r"BC: train/bc_loss is nan at gradient step 30"):
         learn_lockstep(models, 200)
     assert all(not m._data_in_use for m in models)
+
+
+def test_trained_models_continue_in_lockstep_with_their_optimiser_and_schedule(cartpole_data):
+    def trained(seed):  # a schedule object of its own per model: equal values are the same setting
+        model = BC("MlpPolicy", "CartPole-v1", expert_data=cartpole_data[seed:], seed=seed,
+                   learning_rate=lambda progress: 1e-3 * progress)
+        return model.learn(100)
+
+    separate, lockstep = [trained(0), trained(1)], [trained(0), trained(1)]
+    for model in separate:
+        model.learn(100, reset_num_timesteps=False)
+    learn_lockstep(lockstep, 100, reset_num_timesteps=False)
+    for one, other in zip(separate, lockstep):
+        assert other.num_timesteps == 200 and max_gap(one, other) == 0.0
+        assert other.policy.optimizer.param_groups[0]["lr"] == one.policy.optimizer.param_groups[0]["lr"]
+    assert learn_lockstep([BC("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, seed=s) for s in (0, 1)], 0)
