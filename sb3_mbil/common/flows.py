@@ -297,10 +297,15 @@ def fit_conditional_density(
     tr, va = th.as_tensor(train_idx, device=x.device), th.as_tensor(val_idx, device=x.device)
     candidates: dict[str, dict] = {}
     best: tuple[float, float, int, dict] | None = None  # (val LL, noise, steps, state)
+    fits = _train_candidates(make_model, x, c, tr, va, noise_grid, learning_rate, batch_size, max_steps, eval_every,
+                             patience, seed)
     for k, noise in enumerate(noise_grid):
-        model, val_ll, steps, state = _train(
-            make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k
-        )
+        if fits is None:
+            model, val_ll, steps, state = _train(
+                make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k
+            )
+        else:
+            model, val_ll, steps, state = fits[k]
         candidates[f"{noise:g}"] = {"heldout_ll": val_ll, "steps": steps}
         if log is not None:
             log(f"noise {noise:g}: held-out log-likelihood {val_ll:.3f} at step {steps} ({time.process_time() - start:.1f} s)")
@@ -354,3 +359,113 @@ def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_ever
         model.load_state_dict(best_state)
         model.eval()
     return model, best_ll, best_step, best_state
+
+
+class _NonFinite(Exception):
+    """A candidate's loss turned non-finite in a stacked fit: the candidates are fitted one by one instead."""
+
+
+def _train_candidates(make_model, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every, patience, seed):
+    """The noise candidates of a :class:`ConditionalCategorical` fitted at once, each bit for bit what :func:`_train`
+    gives it (its own seed ``seed + k`` and random stream, its own early stopping): the candidates' networks stacked
+    as one batched network (:class:`~sb3_mbil.common.policies.StackedLinear`), clipped and stepped per candidate
+    exactly as ``clip_grad_norm_`` and Adam do. None (fit them one by one) for other models, one candidate, or when a
+    loss turns non-finite."""
+    from sb3_mbil.common.policies import StackedLinear
+
+    if len(noise_grid) < 2 or va is None:
+        return None
+    models, generators = [], []
+    for k in range(len(noise_grid)):
+        with th.random.fork_rng(devices=[]):
+            th.manual_seed(seed + k)
+            model = make_model().to(x.device)
+            if not isinstance(model, ConditionalCategorical):
+                return None
+            model.fit_statistics(x[tr], c[tr])
+            model.train()
+            generator = th.Generator(device=x.device)
+            generator.set_state(th.get_rng_state())
+        models.append(model)
+        generators.append(generator)
+    try:
+        return _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every,
+                            patience, StackedLinear)
+    except _NonFinite:
+        return None
+
+
+def _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every, patience,
+                 stacked_linear):
+    n = len(models)
+    names = [name for name, _ in models[0].named_parameters()]
+    params = {name: th.stack([m.get_parameter(name).detach() for m in models]).requires_grad_(True) for name in names}
+    opt = th.optim.Adam([params[name] for name in names], lr=lr, foreach=True)
+    mean = th.stack([m.c_norm.mean for m in models]).unsqueeze(1)
+    std = th.stack([m.c_norm.std for m in models]).unsqueeze(1)
+    scale = th.stack([th.clamp(m.c_norm.noise_floor, min=noise) for m, noise in zip(models, noise_grid)]).unsqueeze(1)
+    layers = list(models[0].net)
+
+    def log_probs(z: th.Tensor) -> th.Tensor:  # the candidates' log q(. | c) at their standardised inputs
+        for i, layer in enumerate(layers):
+            z = stacked_linear.apply(z, params[f"net.{i}.weight"], params[f"net.{i}.bias"]) \
+                if isinstance(layer, nn.Linear) else layer(z)
+        return th.log_softmax(z, dim=-1)
+
+    def state(k: int) -> dict:
+        out = copy.deepcopy(models[k].state_dict())
+        out.update({name: params[name][k].detach().clone() for name in names})
+        return out
+
+    best = [(-math.inf, 0, state(k), 0) for k in range(n)]  # (held-out LL, step, state, evaluations without gain)
+    active = list(range(n))
+    x_va, c_va = x[va], c[va]
+    for step in range(1, max_steps + 1):
+        batches = []
+        for k in range(n):  # a stopped candidate takes another's rows (its slice is no longer read)
+            if k in active:
+                idx = tr[th.randint(0, len(tr), (batch_size,), device=x.device, generator=generators[k])]
+                eps = th.randn((batch_size, c.shape[1]), generator=generators[k], device=x.device, dtype=c.dtype)
+                batches.append((idx, eps))
+            else:
+                batches.append(None)
+        batches = [b if b is not None else batches[active[0]] for b in batches]
+        idx = th.stack([b[0] for b in batches])
+        z = (c[idx] - mean) / std + th.stack([b[1] for b in batches]) * scale
+        picked = log_probs(z).gather(2, x[idx].long().unsqueeze(-1)).squeeze(-1)
+        losses = [-picked[k].mean() for k in range(n)]
+        if not all(bool(th.isfinite(losses[k])) for k in active):
+            raise _NonFinite
+        opt.zero_grad(set_to_none=True)
+        th.stack(losses).sum().backward()
+        for k in range(n):  # clip_grad_norm_(candidate k's parameters, 10.0)
+            grads = [params[name].grad[k] for name in names]
+            total = th.nn.utils.get_total_norm(grads, 2.0)
+            th._foreach_mul_(grads, th.clamp(10.0 / (total + 1e-6), max=1.0))
+        opt.step()
+        if step % eval_every == 0 or step == max_steps:
+            with th.no_grad():  # evaluate_log_prob's chunks, so that every product has its shape there
+                held_out = th.cat([
+                    log_probs((c_va[i:i + EVAL_CHUNK] - mean) / std).gather(
+                        2, x_va[i:i + EVAL_CHUNK].long().view(1, -1, 1).expand(n, -1, 1)).squeeze(-1)
+                    for i in range(0, len(x_va), EVAL_CHUNK)], dim=1)
+            for k in list(active):
+                ll = float(held_out[k].contiguous().mean())
+                ll = ll if math.isfinite(ll) else -math.inf
+                best_ll, best_step, best_state, bad = best[k]
+                if ll > best_ll:
+                    best[k] = (ll, step, state(k), 0)
+                elif bad + 1 >= patience:
+                    best[k] = (best_ll, best_step, best_state, bad + 1)
+                    active.remove(k)
+                else:
+                    best[k] = (best_ll, best_step, best_state, bad + 1)
+        if not active:
+            break
+    out = []
+    for k, model in enumerate(models):
+        best_ll, best_step, best_state, _ = best[k]
+        model.load_state_dict(best_state)
+        model.eval()
+        out.append((model, best_ll, best_step, best_state))
+    return out

@@ -1,0 +1,27 @@
+"""The density fits' noise candidates trained at once (a stacked network) are each bit for bit their separate fit."""
+
+import pytest
+import torch as th
+
+import sb3_mbil.common.flows as flows
+from sb3_mbil import MBIL, MBILC
+
+
+@pytest.mark.parametrize("algo", [MBIL, MBILC])
+def test_stacked_noise_candidates_fit_what_separate_fits_give(algo, cartpole_data, monkeypatch):
+    def fitted(stacked: bool):
+        if not stacked:
+            monkeypatch.setattr(flows, "_train_candidates", lambda *args, **kwargs: None)
+        kwargs = {"flow_max_steps": 200} if algo is MBIL else {"model_max_steps": 200, "model_noise_grid": (0.03, 0.1, 0.3)}
+        model = algo("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, seed=4, **kwargs)
+        report = model.fit_flows() if algo is MBIL else model.fit_models()
+        monkeypatch.undo()
+        module = model.flows if algo is MBIL else model.balance_model
+        return report, module.state_dict()
+
+    (report_a, state_a), (report_b, state_b) = fitted(False), fitted(True)
+    assert state_a.keys() == state_b.keys() and all(th.equal(state_a[k], state_b[k]) for k in state_a)
+    key = "next_action"
+    assert {k: v for k, v in report_a[key].items() if k != "seconds"} == \
+        {k: v for k, v in report_b[key].items() if k != "seconds"}
+    assert len(report_b[key]["candidates"]) >= 2  # several candidates were fitted (stacked)
