@@ -4,10 +4,12 @@ one process as one batched network.
 Each model keeps everything a separate ``learn`` gives it: its own initial parameters, its own training random stream
 (a generator per model, started where ``learn`` would start it, so it draws the same minibatches), its own data and
 fitted models (MBIL's flows, MBIL-C's P), callbacks, logger and finite checks. Only the update is shared: the
-policies' parameters are stacked on a leading seed dimension, the algorithm's own loss (``_batch_loss``) is evaluated
-for every seed at once with ``torch.func.vmap``, and one optimiser steps the stacked parameters. Adam and its weight
-decay are elementwise, so the stacked step is each seed's own step; the gradients differ from a separate run's only by
-the rounding of batched matrix products (parameters agree to about 1e-6 after 1 000 updates; the test asks for 1e-5).
+policies' parameters are stacked on a leading seed dimension, their outputs computed for every seed at once
+(:meth:`~sb3_mbil.common.policies.ImitationPolicy.stacked_heads`), the algorithm's own loss from those outputs
+(``_loss_from_heads``) evaluated per seed with ``torch.func.vmap``, and one Adam steps the stacked parameters. Each
+seed ends **bit for bit** where its separate run ends: the linear products are taken per seed as a single layer
+takes them (:class:`~sb3_mbil.common.policies.StackedLinear`), and Adam and its weight decay are elementwise (the
+tests compare every parameter after 1 000 updates).
 
 During training each model's parameters are views of the stacked ones (its callbacks see it train); at the end each
 model owns its parameters and its optimiser's state again, and is an ordinary model of its algorithm (``save``,
@@ -188,9 +190,9 @@ def learn_lockstep(models: Sequence[OfflineAlgorithm], total_timesteps: int,
                    tb_log_name: str | None = None, reset_num_timesteps: bool = True,
                    progress_bar: bool = False) -> list[OfflineAlgorithm]:
     """Train ``models`` (one algorithm, the same settings; their own seeds and data) for ``total_timesteps`` gradient
-    steps each, as one batched network; each ends as its own ``learn(total_timesteps)`` would have left it, up to
-    rounding (see the module's docstring). ``callbacks``: one per model (or None); a callback that stops its model's
-    training releases that model while the others go on. Returns the models."""
+    steps each, as one batched network; each ends bit for bit as its own ``learn(total_timesteps)`` would have left it
+    (see the module's docstring). ``callbacks``: one per model (or None); a callback that stops its model's training
+    releases that model while the others go on. Returns the models."""
     check_lockstep(models)
     models = list(models)
     if callbacks is None:
@@ -238,7 +240,7 @@ def _learn(models, total_timesteps, callbacks, log_interval, tb_log_name, reset_
                         models[n]._window.setdefault(key, []).append((first_step, values[:, n]))
                 window.clear()
 
-        while lead.num_timesteps < total and active:
+        while lead.num_timesteps < total and active and not lead.training_complete():
             step = lead.num_timesteps
             for n in active:
                 models[n]._update_current_progress_remaining(step, total)
