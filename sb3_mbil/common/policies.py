@@ -38,7 +38,7 @@ class StackedLinear(th.autograd.Function):
     gradients are bit for bit those of ``torch.nn.functional.linear`` on that slice alone, so that seeds trained in
     lockstep follow their separate runs exactly: the products a single layer computes (``addmm`` forward, grad_out^T x
     for the weight) are taken per slice, because a batched ``baddbmm``/``bmm`` rounds differently for some shapes
-    (measured: 120 and 65 of 720 slices over 144 shapes), and training amplifies a rounding difference; the input's
+    (120 and 65 of 720 slices over 144 shapes: ``python -m benchmarks.probe_stacked_linear``), and training amplifies a rounding difference; the input's
     gradient is one ``bmm`` (exact on every shape measured)."""
 
     @staticmethod
