@@ -544,8 +544,9 @@ class OfflineAlgorithm(BaseAlgorithm):
         raise NotImplementedError
 
     def supports_lockstep(self) -> bool:
-        """True when the update is :meth:`_draw_batch` and :meth:`_batch_loss` on the policy's optimiser alone, so that
-        several seeds can train as one batched network (:func:`sb3_mbil.learn_lockstep`)."""
+        """True when the update is :meth:`_draw_batch`, :meth:`_policy_inputs` and :meth:`_loss_from_heads` on the
+        policy's optimiser alone, so that several seeds can train as one batched network
+        (:func:`sb3_mbil.learn_lockstep`)."""
         return type(self)._loss_from_heads is not OfflineAlgorithm._loss_from_heads and \
             type(self)._train_step is OfflineAlgorithm._train_step and \
             type(self)._batch_loss is OfflineAlgorithm._batch_loss
