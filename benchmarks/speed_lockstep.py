@@ -21,7 +21,7 @@ def measure(algo: str, env: str, n_trajectories: int, seeds: list[int], episodes
     """One cell's runs in one mode: seconds of training and of evaluation, and the seeds' mean returns."""
     import torch as th
 
-    from benchmarks.harness.grid import Run, _build, _result_row
+    from benchmarks.harness.grid import Run, _build, _data, _result_row
     from sb3_mbil import learn_lockstep
 
     th.set_num_threads(1)
@@ -37,14 +37,14 @@ def measure(algo: str, env: str, n_trajectories: int, seeds: list[int], episodes
 
     if lockstep:
         def train_all():
-            built = [_build(r, None, None, "full") for r in runs]
+            built = [_build(r, *_data(r, None, None, "full")) for r in runs]
             return learn_lockstep([m for m, _ in built], built[0][1])
         models = timed(train_all)
     else:
         models = []
         for r in runs:  # each built right before it trains, as the harness does
             def train_one(r=r):
-                model, steps = _build(r, None, None, "full")
+                model, steps = _build(r, *_data(r, None, None, "full"))
                 return model.learn(steps)
             models.append(timed(train_one))
     c, w = time.process_time(), time.perf_counter()

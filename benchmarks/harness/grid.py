@@ -166,8 +166,9 @@ def run_one(run: Run, n_episodes: int = 300, overrides: dict[str, dict[str, Any]
     import torch as th
 
     th.set_num_threads(1)
-    t0 = time.perf_counter()
-    model, steps = _build(run, overrides, pool, protocol)
+    data = _data(run, overrides, pool, protocol)
+    t0 = time.perf_counter()  # training time: the model's construction on, the data's loading left out (as before)
+    model, steps = _build(run, *data)
     model.learn(steps)
     return _result_row(run, model, steps, time.perf_counter() - t0, n_episodes, overrides, commit, n_eval_envs, pool,
                        protocol)
@@ -187,8 +188,9 @@ def run_cell_lockstep(runs: list[Run], n_episodes: int = 300, overrides: dict[st
     if len({(r.algo, r.env, r.n_trajectories) for r in runs}) > 1:
         raise ValueError(f"runs: expected the seeds of one (algo, env, N) cell, found {sorted({r.key()[:3] for r in runs})}")
     th.set_num_threads(1)
+    data = [_data(run, overrides, pool, protocol) for run in runs]
     t0 = time.perf_counter()
-    built = [_build(run, overrides, pool, protocol) for run in runs]
+    built = [_build(run, *d) for run, d in zip(runs, data)]
     models, steps = [m for m, _ in built], built[0][1]
     if not models[0].supports_lockstep():
         return [run_one(run, n_episodes, overrides, commit, n_eval_envs, pool, protocol) for run in runs]
@@ -198,15 +200,20 @@ def run_cell_lockstep(runs: list[Run], n_episodes: int = 300, overrides: dict[st
             for run, model in zip(runs, models)]
 
 
-def _build(run: Run, overrides, pool, protocol):
-    """The run's model, built right before it trains (its seed's state is its training stream's start), and its
-    number of gradient steps."""
+def _data(run: Run, overrides, pool, protocol) -> tuple[dict[str, Any], int, Any]:
+    """The run's settings, gradient steps and drawn demonstrations."""
     from benchmarks.harness.protocol import demonstrations_for
-    from sb3_mbil import ALGORITHMS
 
     settings = tuned_settings(run.algo, run.env, (overrides or {}).get(run.algo), fallback=pool is not None)
     steps = int(float(settings.pop("n_timesteps")))
-    demos = demonstrations_for(run.algo, run.env, run.n_trajectories, run.seed, protocol, pool)
+    return settings, steps, demonstrations_for(run.algo, run.env, run.n_trajectories, run.seed, protocol, pool)
+
+
+def _build(run: Run, settings: dict[str, Any], steps: int, demos) -> tuple[Any, int]:
+    """The run's model, built right before it trains (its seed's state is its training stream's start), and its
+    number of gradient steps."""
+    from sb3_mbil import ALGORITHMS
+
     return ALGORITHMS[run.algo]("MlpPolicy", run.env, expert_data=demos, seed=run.seed, **settings), steps
 
 
