@@ -7,12 +7,13 @@ import sb3_mbil.common.flows as flows
 from sb3_mbil import MBIL, MBILC
 
 
-@pytest.mark.parametrize("algo", [MBIL, MBILC])
-def test_stacked_noise_candidates_fit_what_separate_fits_give(algo, cartpole_data, monkeypatch):
+@pytest.mark.parametrize("algo, min_delta", [(MBIL, 0.0), (MBIL, 0.02), (MBILC, None)])
+def test_stacked_noise_candidates_fit_what_separate_fits_give(algo, min_delta, cartpole_data, monkeypatch):
     def fitted(stacked: bool):
         if not stacked:
             monkeypatch.setattr(flows, "_train_candidates", lambda *args, **kwargs: None)
-        kwargs = {"flow_max_steps": 200} if algo is MBIL else {"model_max_steps": 200, "model_noise_grid": (0.03, 0.1, 0.3)}
+        kwargs = {"flow_max_steps": 200, "flow_min_delta": min_delta} if algo is MBIL else \
+            {"model_max_steps": 200, "model_noise_grid": (0.03, 0.1, 0.3)}
         model = algo("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, seed=4, **kwargs)
         report = model.fit_flows() if algo is MBIL else model.fit_models()
         monkeypatch.undo()
@@ -25,3 +26,15 @@ def test_stacked_noise_candidates_fit_what_separate_fits_give(algo, cartpole_dat
     assert {k: v for k, v in report_a[key].items() if k != "seconds"} == \
         {k: v for k, v in report_b[key].items() if k != "seconds"}
     assert len(report_b[key]["candidates"]) >= 2  # several candidates were fitted (stacked)
+
+
+def test_min_delta_stops_a_fit_whose_gains_are_smaller(cartpole_data):
+    """A held-out gain below ``flow_min_delta`` does not reset the patience: with a huge one, every candidate stops
+    ``patience`` evaluations after its first; the best point is kept either way."""
+    settings = dict(flow_max_steps=500, flow_eval_every=10, flow_patience=3, flow_refit=False, seed=1)
+    plain = MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, **settings).fit_flows()
+    capped = MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, flow_min_delta=1e9, **settings).fit_flows()
+    assert all(c["steps"] <= 40 for c in capped["next_action"]["candidates"].values())
+    assert max(c["steps"] for c in plain["next_action"]["candidates"].values()) > 40
+    with pytest.raises(ValueError, match="flow_min_delta"):
+        MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, flow_min_delta=-1.0)

@@ -282,13 +282,14 @@ def fit_conditional_density(
     patience: int,
     refit: bool,
     seed: int,
+    min_delta: float = 0.0,
     log: Callable[[str], None] | None = None,
 ) -> tuple[nn.Module, FitReport]:
     """Maximum likelihood with Gaussian input noise; noise level and step count chosen on held-out data.
 
     For each noise level: train on the train split, evaluating the clean held-out
     log-likelihood every ``eval_every`` steps, stop after ``patience`` evaluations
-    without improvement and keep the best point. The noise level with the best
+    without an improvement of more than ``min_delta`` nats per sample (over the best so far) and keep the best point. The noise level with the best
     held-out log-likelihood wins; with ``refit`` the model is then retrained on
     all the data with that noise for the chosen number of steps. ``log`` receives one line per noise level
     (progress: the algorithms pass ``print`` when ``verbose >= 1``).
@@ -298,11 +299,12 @@ def fit_conditional_density(
     candidates: dict[str, dict] = {}
     best: tuple[float, float, int, dict] | None = None  # (val LL, noise, steps, state)
     fits = _train_candidates(make_model, x, c, tr, va, noise_grid, learning_rate, batch_size, max_steps, eval_every,
-                             patience, seed)
+                             patience, seed, min_delta)
     for k, noise in enumerate(noise_grid):
         if fits is None:
             model, val_ll, steps, state = _train(
-                make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k
+                make_model, x, c, tr, va, noise, learning_rate, batch_size, max_steps, eval_every, patience, seed + k,
+                min_delta,
             )
         else:
             model, val_ll, steps, state = fits[k]
@@ -328,7 +330,7 @@ def fit_conditional_density(
     return model, report
 
 
-def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_every, patience, seed):
+def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_every, patience, seed, min_delta=0.0):
     """Train one model; with a validation split, early-stop on its clean log-likelihood."""
     with th.random.fork_rng(devices=[]):
         th.manual_seed(seed)
@@ -337,6 +339,7 @@ def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_ever
         model.train()
         opt = th.optim.Adam(model.parameters(), lr=lr, foreach=True)
         best_ll, best_step, best_state, bad = -math.inf, 0, copy.deepcopy(model.state_dict()), 0
+        mark = -math.inf  # the held-out LL that the patience counts from (the last gain of more than min_delta)
         for step in range(1, max_steps + 1):
             idx = tr[th.randint(0, len(tr), (batch_size,), device=x.device)]
             loss = -model.log_prob(x[idx], c[idx], noise).mean()
@@ -349,7 +352,9 @@ def _train(make_model, x, c, tr, va, noise, lr, batch_size, max_steps, eval_ever
                 ll = float(evaluate_log_prob(model, x[va], c[va]).mean())
                 ll = ll if math.isfinite(ll) else -math.inf
                 if ll > best_ll:
-                    best_ll, best_step, best_state, bad = ll, step, copy.deepcopy(model.state_dict()), 0
+                    best_ll, best_step, best_state = ll, step, copy.deepcopy(model.state_dict())
+                if ll > mark + min_delta:
+                    mark, bad = ll, 0
                 else:
                     bad += 1
                     if bad >= patience:
@@ -365,7 +370,8 @@ class _NonFinite(Exception):
     """A candidate's loss turned non-finite in a stacked fit: the candidates are fitted one by one instead."""
 
 
-def _train_candidates(make_model, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every, patience, seed):
+def _train_candidates(make_model, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every, patience, seed,
+                      min_delta=0.0):
     """The noise candidates of a :class:`ConditionalCategorical` fitted at once, each bit for bit what :func:`_train`
     gives it (its own seed ``seed + k`` and random stream, its own early stopping): the candidates' networks stacked
     as one batched network (:class:`~sb3_mbil.common.policies.StackedLinear`), clipped and stepped per candidate
@@ -390,13 +396,13 @@ def _train_candidates(make_model, x, c, tr, va, noise_grid, lr, batch_size, max_
         generators.append(generator)
     try:
         return _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every,
-                            patience, StackedLinear)
+                            patience, StackedLinear, min_delta)
     except _NonFinite:
         return None
 
 
 def _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, max_steps, eval_every, patience,
-                 stacked_linear):
+                 stacked_linear, min_delta=0.0):
     n = len(models)
     names = [name for name, _ in models[0].named_parameters()]
     params = {name: th.stack([m.get_parameter(name).detach() for m in models]).requires_grad_(True) for name in names}
@@ -418,6 +424,7 @@ def _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, m
         return out
 
     best = [(-math.inf, 0, state(k), 0) for k in range(n)]  # (held-out LL, step, state, evaluations without gain)
+    marks = [-math.inf] * n  # the held-out LL each candidate's patience counts from
     active = list(range(n))
     x_va, c_va = x[va], c[va]
     for step in range(1, max_steps + 1):
@@ -454,12 +461,14 @@ def _fit_stacked(models, generators, x, c, tr, va, noise_grid, lr, batch_size, m
                 ll = ll if math.isfinite(ll) else -math.inf
                 best_ll, best_step, best_state, bad = best[k]
                 if ll > best_ll:
-                    best[k] = (ll, step, state(k), 0)
-                elif bad + 1 >= patience:
-                    best[k] = (best_ll, best_step, best_state, bad + 1)
-                    active.remove(k)
+                    best_ll, best_step, best_state = ll, step, state(k)
+                if ll > marks[k] + min_delta:
+                    marks[k], bad = ll, 0
                 else:
-                    best[k] = (best_ll, best_step, best_state, bad + 1)
+                    bad += 1
+                best[k] = (best_ll, best_step, best_state, bad)
+                if bad >= patience:
+                    active.remove(k)
         if not active:
             break
     out = []

@@ -56,6 +56,7 @@ class MBIL(OfflineAlgorithm):
     :param flow_max_steps: maximum gradient steps of one flow fit
     :param flow_eval_every: steps between held-out evaluations (early stopping)
     :param flow_patience: held-out evaluations without improvement before stopping
+    :param flow_min_delta: the held-out log-likelihood gain (nats per tuple) that counts as an improvement
     :param noise_grid: Gaussian input-noise levels (standardised units) tried for P(a' | s, a, s');
         the held-out log-likelihood picks one
     :param fit_transition: also fit T(s' | s, a) with the factored estimator, where T cancels from the balance
@@ -106,6 +107,7 @@ class MBIL(OfflineAlgorithm):
         flow_max_steps: int = 1000,
         flow_eval_every: int = 25,
         flow_patience: int = 10,
+        flow_min_delta: float = 0.0,
         noise_grid: Sequence[float] = (0.01, 0.03, 0.1, 0.3),
         fit_transition: bool = False,
         transition_noise_grid: Sequence[float] | None = (0.03,),
@@ -138,6 +140,7 @@ class MBIL(OfflineAlgorithm):
         self.flow_max_steps = flow_max_steps
         self.flow_eval_every = flow_eval_every
         self.flow_patience = flow_patience
+        self.flow_min_delta = flow_min_delta
         self.noise_grid = noise_grid
         self.fit_transition = fit_transition
         self.transition_noise_grid = transition_noise_grid
@@ -164,6 +167,7 @@ class MBIL(OfflineAlgorithm):
         self.flow_hidden = check_sizes("flow_hidden", self.flow_hidden)
         self.flow_scale_limit = check_real("flow_scale_limit", self.flow_scale_limit, low=0.0, low_open=True)
         self.flow_learning_rate = check_real("flow_learning_rate", self.flow_learning_rate, low=0.0, low_open=True)
+        self.flow_min_delta = check_real("flow_min_delta", self.flow_min_delta, low=0.0)
         self.noise_grid = check_levels("noise_grid", self.noise_grid)
         if self.transition_noise_grid is not None:
             self.transition_noise_grid = check_levels("transition_noise_grid", self.transition_noise_grid)
@@ -217,6 +221,7 @@ class MBIL(OfflineAlgorithm):
             max_steps=self.flow_max_steps,
             eval_every=self.flow_eval_every,
             patience=self.flow_patience,
+            min_delta=self.flow_min_delta,
             refit=self.flow_refit,
             seed=seed,
         )
