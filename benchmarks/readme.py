@@ -28,15 +28,13 @@ from benchmarks.harness.cli import run
 from benchmarks.harness.curves import final_returns, pool_experts
 from benchmarks.harness.report import RANDOM_RETURN, expert_returns, paired_interval, read_rows
 from benchmarks.harness.results import read_result_rows
-from benchmarks.stochastic_report import tuning_table
+from benchmarks.stochastic_report import LABEL, tuning_table
 from sb3_mbil.common.demonstrations import load_demonstrations
 from sb3_mbil.common.files import write_text
 
 CLASSIC = ("CartPole-v1", "Acrobot-v1", "LunarLander-v3")
 MUJOCO = ("Hopper-v4", "HalfCheetah-v4", "Walker2d-v4", "Ant-v4")
 FAMILY = ("mbil", "mbil_c")
-LABEL = {"bc": "BC", "mbil": "MBIL", "mbil_c": "MBIL-C", "edm": "EDM", "avril": "AVRIL", "rcal": "RCAL",
-         "dsfn": "DSFN", "iq_learn": "IQ-Learn", "valuedice": "ValueDICE", "odice": "ODICE"}
 MARKERS = {"which": ("<!-- which-algorithm: python -m benchmarks.readme -->", "<!-- /which-algorithm -->"),
            "results": ("<!-- results: python -m benchmarks.readme -->", "<!-- /results -->")}
 

@@ -21,6 +21,7 @@ import argparse
 import json
 import time
 from dataclasses import asdict, dataclass, field
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
@@ -67,7 +68,7 @@ def variants_for(env_id: str) -> dict[str, Variant]:
     """
     discrete = _discrete(env_id)
     out: dict[str, Variant] = {}
-    for algo in ("bc", "mbil", "mbil_c"):
+    for algo in TUNED_ALGOS:
         zoo_wd = float(tuned_settings(algo, env_id).get("weight_decay", 0.0))
         wds = [w for w in (0.0, 1e-3, 1e-2) if w != zoo_wd][: 2 if discrete else 1]
         own = ({"observation_noise": 0.1}, {"observation_noise": 0.3}) if algo == "bc" else ({"alpha": 0.3}, {"alpha": 3.0})
@@ -82,6 +83,24 @@ def variants_for(env_id: str) -> dict[str, Variant]:
             (k, v), = o.items()
             out[f"{algo}_{'noise' if k == 'observation_noise' else k}{v:g}"] = Variant(algo, o)
     return out
+
+
+TUNED_ALGOS = ("bc", "mbil", "mbil_c")
+
+
+def baseline_variants(env_id: str) -> dict[str, Variant]:
+    """Every other algorithm of :data:`sb3_mbil.ALGORITHMS` that supports the env's action space and has a zoo entry
+    for it, at that entry (named after the algorithm): the paper's baselines on the same draws, untuned."""
+    from benchmarks.harness.grid import has_zoo_entry
+
+    space = type(gym.make(env_id).action_space)
+    return {name: Variant(name) for name, cls in ALGORITHMS.items()
+            if name not in TUNED_ALGOS and space in cls.supported_action_spaces and has_zoo_entry(name, env_id)}
+
+
+def all_variants(env_id: str) -> dict[str, Variant]:
+    """The tuning grid (:func:`variants_for`) and the baselines (:func:`baseline_variants`)."""
+    return {**variants_for(env_id), **baseline_variants(env_id)}
 
 
 #: configurations per algorithm and tuning seeds: the one tuning budget every algorithm gets
@@ -167,17 +186,29 @@ def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories
                 n_episodes, commit)
 
 
+def lockstep_ready(variant: Variant, env_id: str, demos) -> bool:
+    """Whether the variant's algorithm trains in lockstep on this env (a model built to ask, never trained)."""
+    settings = tuned_settings(variant.algo, env_id, variant.settings)
+    settings.pop("n_timesteps")
+    return ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=demos, seed=0, **settings).supports_lockstep()
+
+
 def run_cell_lockstep(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seeds: list[int],
-                      n_episodes: int, commit: str) -> list[dict[str, Any]]:
+                      n_episodes: int, commit: str) -> Iterator[dict[str, Any]]:
     """:func:`run_cell` for several seeds, trained in lockstep; each seed's row is its own run's, but
-    ``train_seconds`` is the seeds' training time divided among them."""
+    ``train_seconds`` is the seeds' training time divided among them. An algorithm that cannot train in lockstep
+    runs seed by seed, each row yielded as its run ends."""
     th.set_num_threads(1)
     draws = {seed: draw(env_id, pool, n_trajectories, seed) for seed in seeds}
+    if not lockstep_ready(variant, env_id, draws[seeds[0]]):
+        for seed in seeds:
+            yield run_cell(name, variant, env_id, pool, n_trajectories, seed, n_episodes, commit)
+        return
     t0 = time.perf_counter()
     trained = train_variant_lockstep(variant, env_id, draws)
     share = (time.perf_counter() - t0) / len(seeds)
-    return [_row(name, variant, env_id, pool, n_trajectories, seed, *trained[seed], share, n_episodes, commit)
-            for seed in seeds]
+    for seed in seeds:
+        yield _row(name, variant, env_id, pool, n_trajectories, seed, *trained[seed], share, n_episodes, commit)
 
 
 def _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, train_seconds, n_episodes, commit):
@@ -223,7 +254,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
     """
     from benchmarks.harness.results import read_result_rows
 
-    table = variants_for(env_id)
+    table = all_variants(env_id)
     unknown = [v for v in variants if v not in table]
     if unknown:
         raise ValueError(f"variants: expected names from {sorted(table)}, found {unknown}")
@@ -266,7 +297,9 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", required=True)
     parser.add_argument("--pools", nargs="+", required=True, help="shipped pool names or .npz paths")
-    parser.add_argument("--variants", nargs="+", required=True, help="names from variants_for(env), or 'all'")
+    parser.add_argument("--variants", nargs="+", required=True,
+                        help="names from all_variants(env); 'all': the tuning grid of BC, MBIL and MBIL-C; "
+                             "'baselines': every other algorithm at its zoo entry")
     parser.add_argument("--n-trajectories", type=int, nargs="+", default=[1])
     parser.add_argument("--seeds", type=parse_seeds, default=list(TUNING_SEEDS))
     parser.add_argument("--episodes", type=int, default=100)
@@ -278,7 +311,8 @@ def main(argv=None) -> None:
                         help="train the pending seeds of each (variant, pool, N) together (sb3_mbil.learn_lockstep; "
                              "the same rows, cell after cell)")
     args = parser.parse_args(argv)
-    variants = sorted(variants_for(args.env)) if args.variants == ["all"] else args.variants
+    expand = {"all": sorted(variants_for(args.env)), "baselines": sorted(baseline_variants(args.env))}
+    variants = [name for v in args.variants for name in expand.get(v, [v])]
     run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
         args.tuning_pool, args.tuned_algos, args.lockstep)
 

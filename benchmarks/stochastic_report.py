@@ -31,7 +31,8 @@ def noise_level(pool: str) -> float:
     if match is None:
         raise ValueError(f"pool: expected a noise-family pool '<env>-noise<level>', found {pool!r}")
     return float(match.group(1))
-LABEL = {"bc": "BC", "mbil": "MBIL", "mbil_c": "MBIL-C"}
+LABEL = {"bc": "BC", "mbil": "MBIL", "mbil_c": "MBIL-C", "edm": "EDM", "avril": "AVRIL", "rcal": "RCAL",
+         "dsfn": "DSFN", "iq_learn": "IQ-Learn", "valuedice": "ValueDICE", "odice": "ODICE"}
 
 
 def _by_cell(rows):
@@ -78,7 +79,8 @@ def _verdict(d: np.ndarray) -> str:
 
 
 def grid_table(rows, chosen) -> str:
-    """Per (env, pool, N): BC, BC*, MBIL, MBIL*, MBIL-C, MBIL-C* means, and each against BC* and BC, paired."""
+    """Per (env, pool, N): BC, BC*, MBIL, MBIL*, MBIL-C, MBIL-C* and the baselines that ran (at their zoo entries)
+    means, and each against BC* and BC, paired."""
     lines = []
     for (env, pool, n), variants in sorted(_by_cell(rows).items()):
         best = chosen.get((env, pool, n), {})
@@ -87,6 +89,8 @@ def grid_table(rows, chosen) -> str:
             columns.append((LABEL[algo], algo))
             if best.get(algo) and best[algo] != algo:
                 columns.append((f"{LABEL[algo]}* ({best[algo]})", best[algo]))
+        tuned = variants_for(env)
+        columns += [(LABEL.get(name, name), name) for name in sorted(variants) if name not in tuned]
         reference = best.get("bc", "bc")
         lines += [f"**{env}, pool {pool}, N = {n}** (BC* = {reference})", "",
                   "| algorithm | seeds | mean return | minus BC*, paired (95% CI) | minus BC, paired (95% CI) |",

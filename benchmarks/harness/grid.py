@@ -62,6 +62,16 @@ def git_commit(root: str | Path | None = None) -> str:
 DEFAULT_STEPS = 10_000
 
 
+def has_zoo_entry(algo: str, env: str) -> bool:
+    """Whether ``zoo_hyperparams/<algo>.yml`` has an entry for the env."""
+    import yaml
+
+    from sb3_mbil.zoo import hyperparams_file
+
+    with open(hyperparams_file(algo)) as f:
+        return env in yaml.safe_load(f)
+
+
 def tuned_settings(algo: str, env: str, overrides: dict[str, Any] | None = None, fallback: bool = False) -> dict[str, Any]:
     """The algorithm's settings for the env from ``zoo_hyperparams/<algo>.yml`` (the same the RL Zoo uses).
 

@@ -30,6 +30,23 @@ def test_a_cell_in_lockstep_gives_each_seed_its_own_runs_row():
     same = ("mean_return", "std_return", "best_step", "settings", "seed")
     for name, variant in cases.items():
         separate = [run_cell(name, variant, "CartPole-v1", "CartPole-v1-sampled", 1, seed, 3, "test") for seed in (0, 1)]
-        lockstep = run_cell_lockstep(name, variant, "CartPole-v1", "CartPole-v1-sampled", 1, [0, 1], 3, "test")
+        lockstep = list(run_cell_lockstep(name, variant, "CartPole-v1", "CartPole-v1-sampled", 1, [0, 1], 3, "test"))
         assert [[r[c] for c in same] for r in lockstep] == [[r[c] for c in same] for r in separate]
         assert all((r["best_step"] in (500, 1000)) == (name == "bc_es") for r in lockstep)
+
+
+def test_the_baselines_run_at_their_zoo_entries_seed_by_seed_and_join_the_grid_table():
+    from benchmarks.stochastic import Variant, baseline_variants, run_cell, run_cell_lockstep
+    from benchmarks.stochastic_report import grid_table
+
+    assert set(baseline_variants("CartPole-v1")) == {"edm", "avril", "rcal", "dsfn", "iq_learn", "valuedice"}
+    variant = Variant("avril", {"n_timesteps": 200})  # AVRIL cannot train in lockstep: its seeds run one by one
+    cell = run_cell_lockstep("avril", variant, "CartPole-v1", "CartPole-v1-sampled", 1, [0, 1], 3, "test")
+    first = next(cell)  # a row as soon as its seed has run
+    separate = run_cell("avril", variant, "CartPole-v1", "CartPole-v1-sampled", 1, 0, 3, "test")
+    assert first["mean_return"] == separate["mean_return"] and first["seed"] == 0
+    rows = [first, *cell]
+    assert [r["seed"] for r in rows] == [0, 1]
+    bc = [{**r, "variant": "bc", "algo": "bc", "mean_return": r["mean_return"] - 1.0} for r in rows]
+    table = grid_table([{k: str(v) for k, v in r.items()} for r in bc + rows], {})
+    assert "| AVRIL | 2 |" in table and "+1.0" in table
