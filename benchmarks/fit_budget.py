@@ -1,0 +1,115 @@
+"""MBIL's density fit at smaller budgets: does a cheaper fit of P(a' | s, a, s') change the policy's return?
+
+Each variant is MBIL with its zoo settings and a fit budget; the seeds of a cell train in lockstep (the same runs as
+separate ones); one row per (variant, pool, N, seed) with the return (100 episodes), the fit's CPU seconds, its chosen
+noise and steps, its held-out log-likelihood and the mean balance target. Tuning seeds (>= 100) only: the question is
+which default to ship. Rerun to resume (finished rows are skipped).
+
+    python -m benchmarks.fit_budget --env LunarLander-v3 --pools LunarLander-v3 LunarLander-v3-sampled \\
+        --n-trajectories 1 15 --seeds 100-109 --csv results/fit_budget.csv
+    python -m benchmarks.fit_budget --summary results/fit_budget.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections import defaultdict
+
+import numpy as np
+import torch as th
+
+from benchmarks.harness.cli import parse_seeds, run
+from benchmarks.harness.grid import git_commit
+from benchmarks.harness.report import paired_interval
+from benchmarks.harness.results import append_rows, finished_keys, read_result_rows
+from benchmarks.stochastic import Variant, _row, draw, train_variant_lockstep
+
+#: the fit budgets compared; "mbil" is the shipped default (up to 1 000 steps per noise level, then a refit on all
+#: the tuples for the chosen steps)
+BUDGETS = {
+    "mbil": {},
+    "mbil_fit300": {"flow_max_steps": 300},
+    "mbil_fit300_norefit": {"flow_max_steps": 300, "flow_refit": False},
+    "mbil_norefit": {"flow_refit": False},
+}
+COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
+           "train_seconds", "fit_seconds", "fit_noise", "fit_steps", "p_heldout_ll", "target_mean", "settings", "commit"]
+KEY = ("variant", "env", "pool", "n_trajectories", "seed")
+
+
+def run_budgets(env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int], variants: list[str],
+                n_episodes: int, csv_path: str) -> None:
+    th.set_num_threads(1)
+    done, commit = finished_keys(csv_path, KEY), git_commit()
+    for pool in pools:
+        for n in n_trajectories:
+            for name in variants:
+                todo = [s for s in seeds if (name, env_id, pool, str(n), str(s)) not in done]
+                if not todo:
+                    continue
+                variant = Variant("mbil", BUDGETS[name])
+                draws = {s: draw(env_id, pool, n, s) for s in todo}
+                trained = train_variant_lockstep(variant, env_id, draws)
+                rows = []
+                for s in todo:
+                    model, _ = trained[s]
+                    row = _row(name, variant, env_id, pool, n, s, model, None, 0.0, n_episodes, commit)
+                    report = model.flow_report
+                    row.update(fit_seconds=round(report["fit_seconds"], 2), fit_noise=report["next_action"]["noise"],
+                               fit_steps=report["next_action"]["steps"],
+                               p_heldout_ll=round(report["next_action"]["heldout_ll"], 4),
+                               target_mean=round(float(model.tuple_targets().mean()), 4))
+                    row.pop("algo"), row.pop("best_step"), row.pop("train_seconds")
+                    row["train_seconds"] = ""
+                    rows.append(row)
+                    print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f} (fit {row['fit_seconds']} s, "
+                          f"{row['fit_steps']} steps)", flush=True)
+                append_rows(csv_path, rows, COLUMNS)
+
+
+def summary(csv_path: str) -> str:
+    """Markdown: per (pool, N), each budget's mean return and fit seconds, and its return minus the default's,
+    paired over seeds."""
+    cells: dict[tuple, dict[str, dict[int, dict]]] = defaultdict(lambda: defaultdict(dict))
+    for r in read_result_rows(csv_path):
+        cells[(r["pool"], int(r["n_trajectories"]))][r["variant"]][int(r["seed"])] = r
+    lines = ["| pool | N | fit budget | seeds | mean return | fit CPU s (median) | held-out LL | minus default, "
+             "paired (95% CI) |", "|---|---|---|---|---|---|---|---|"]
+    for (pool, n), variants in sorted(cells.items()):
+        base = variants.get("mbil", {})
+        for name in [v for v in BUDGETS if v in variants]:
+            rows = variants[name]
+            ret = np.mean([float(r["mean_return"]) for r in rows.values()])
+            fit = np.median([float(r["fit_seconds"]) for r in rows.values()])
+            ll = np.mean([float(r["p_heldout_ll"]) for r in rows.values()])
+            common = sorted(set(rows) & set(base))
+            diff = ""
+            if name != "mbil" and len(common) >= 2:
+                d = np.array([float(rows[s]["mean_return"]) - float(base[s]["mean_return"]) for s in common])
+                lo, hi = paired_interval(d)
+                diff = f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] " + ("above" if lo > 0 else "below" if hi < 0 else "level")
+            lines.append(f"| {pool} | {n} | {name} | {len(rows)} | {ret:.1f} | {fit:.2f} | {ll:.3f} | {diff} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="LunarLander-v3")
+    p.add_argument("--pools", nargs="+", default=["LunarLander-v3", "LunarLander-v3-sampled"])
+    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 15])
+    p.add_argument("--seeds", type=parse_seeds, default=list(range(100, 110)))
+    p.add_argument("--variants", nargs="+", default=list(BUDGETS), choices=list(BUDGETS))
+    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--csv", default="results/fit_budget.csv")
+    p.add_argument("--summary", default=None, metavar="CSV", help="print the comparison of a finished CSV and stop")
+    a = p.parse_args(argv)
+    if a.summary:
+        print(summary(a.summary))
+        return
+    if min(a.seeds) < 100:
+        raise ValueError(f"--seeds: expected tuning seeds >= 100, found {min(a.seeds)}")
+    run_budgets(a.env, a.pools, a.n_trajectories, a.seeds, a.variants, a.episodes, a.csv)
+
+
+if __name__ == "__main__":
+    run(main)
