@@ -1,0 +1,154 @@
+"""What does the balance term add? MBIL and MBIL-C with the paper's P(a' | s, a, s') against the same algorithm with
+P(a' | s') (s and a hidden from P at its fit and at the targets) and against no balance term (alpha = 0).
+
+The balance equation's content is P's conditioning on the predecessor (s, a): with P(a' | s') the balance term fits
+log pi(a' | s') to a second model of the same (s', a') labels that behaviour cloning fits (a self-distillation), so
+equal returns with P(a' | s') say that what the term adds is that smoothing, not the balance equation. Hiding s and a:
+they are replaced by zeros in P's inputs (constant columns, which the fit's standardiser gives unit input noise while
+fitting and zero at the targets, so P learns to ignore them).
+
+Not part of the installed package: a probe on tuning seeds (>= 100); rows in a CSV (rerun to resume), seeds in
+lockstep (each its separate run), 100 evaluation episodes.
+
+    python -m benchmarks.balance_ablation --env LunarLander-v3 --n-trajectories 1 --seeds 100-109 \\
+        --pools LunarLander-v3-sampled benchmarks/pools/LunarLander-v3-noise0.1.npz \\
+        benchmarks/pools/LunarLander-v3-noise0.2.npz --csv results/balance_ablation.csv
+    python -m benchmarks.balance_ablation --summary results/balance_ablation.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections import defaultdict
+
+import numpy as np
+import torch as th
+
+from benchmarks.harness.cli import parse_seeds, run
+from benchmarks.harness.grid import git_commit, tuned_settings
+from benchmarks.harness.report import paired_interval
+from benchmarks.harness.results import append_rows, finished_keys, read_result_rows
+from benchmarks.stochastic import Variant, _row, draw
+from sb3_mbil import MBIL, MBILC, learn_lockstep
+from sb3_mbil.mbil.policies import MarkovBalanceModel
+from sb3_mbil.mbil_c.policies import BalanceModel
+
+
+class _NextStateOnly:
+    """P's inputs with s and a replaced by zeros: P(a' | s') in place of P(a' | s, a, s')."""
+
+    def next_action_inputs(self, s, a, s_next, a_next):
+        return super().next_action_inputs(th.zeros_like(s), th.zeros_like(a), s_next, a_next)
+
+    def next_action_distribution(self, s, a, s_next):  # MBIL-C's targets
+        return super().next_action_distribution(th.zeros_like(s), th.zeros_like(a), s_next)
+
+
+class _FlowsNextStateOnly(_NextStateOnly, MarkovBalanceModel):
+    pass
+
+
+class _ModelNextStateOnly(_NextStateOnly, BalanceModel):
+    pass
+
+
+class MBILNextStateOnly(MBIL):
+    """MBIL whose P is P(a' | s')."""
+
+    def _setup_model(self) -> None:
+        super()._setup_model()
+        self.flows.__class__ = _FlowsNextStateOnly
+
+
+class MBILCNextStateOnly(MBILC):
+    """MBIL-C whose P is P(a' | s')."""
+
+    def _setup_model(self) -> None:
+        super()._setup_model()
+        self.balance_model.__class__ = _ModelNextStateOnly
+
+
+#: name -> (class, zoo entry of, settings over the entry)
+VARIANTS = {
+    "mbil": (MBIL, "mbil", {}),
+    "mbil_next_state_only": (MBILNextStateOnly, "mbil", {}),
+    "mbil_alpha0": (MBIL, "mbil", {"alpha": 0.0}),
+    "mbil_c": (MBILC, "mbil_c", {}),
+    "mbil_c_next_state_only": (MBILCNextStateOnly, "mbil_c", {}),
+    "mbil_c_alpha0": (MBILC, "mbil_c", {"alpha": 0.0}),
+}
+COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "settings",
+           "commit"]
+KEY = ("variant", "env", "pool", "n_trajectories", "seed")
+
+
+def run_ablation(env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int], variants: list[str],
+                 n_episodes: int, csv_path: str) -> None:
+    th.set_num_threads(1)
+    done, commit = finished_keys(csv_path, KEY), git_commit()
+    for pool in pools:
+        for n in n_trajectories:
+            for name in variants:
+                todo = [s for s in seeds if (name, env_id, pool, str(n), str(s)) not in done]
+                if not todo:
+                    continue
+                cls, entry, overrides = VARIANTS[name]
+                settings = tuned_settings(entry, env_id, overrides)
+                steps = int(float(settings.pop("n_timesteps")))
+                models = [cls("MlpPolicy", env_id, expert_data=draw(env_id, pool, n, s), seed=s, **settings) for s in todo]
+                learn_lockstep(models, steps)
+                variant = Variant(entry, overrides)
+                rows = [{k: v for k, v in _row(name, variant, env_id, pool, n, s, m, None, 0.0, n_episodes, commit).items()
+                         if k in COLUMNS} for s, m in zip(todo, models)]
+                append_rows(csv_path, rows, COLUMNS)
+                for r in rows:
+                    print(f"{name} {pool} N={n} seed={r['seed']}: {r['mean_return']:.1f}", flush=True)
+
+
+def summary(csv_path: str) -> str:
+    """Markdown: per (pool, N), each variant's mean return, and the paper's P against P(a' | s') and against no
+    balance term, paired over seeds."""
+    cells: dict[tuple, dict[str, dict[int, float]]] = defaultdict(lambda: defaultdict(dict))
+    for r in read_result_rows(csv_path):
+        cells[(r["pool"], int(r["n_trajectories"]))][r["variant"]][int(r["seed"])] = float(r["mean_return"])
+    lines = ["| pool | N | algorithm | P(a' given s, a, s') | P(a' given s') | alpha = 0 | P(s, a, s') minus P(s') | "
+             "P(s, a, s') minus alpha = 0 |", "|---|---|---|---|---|---|---|---|"]
+
+    def diff(a: dict, b: dict) -> str:
+        common = sorted(set(a) & set(b))
+        if len(common) < 2:
+            return ""
+        d = np.array([a[s] - b[s] for s in common])
+        lo, hi = paired_interval(d)
+        return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] " + ("above" if lo > 0 else "below" if hi < 0 else "level")
+
+    for (pool, n), v in sorted(cells.items()):
+        for algo, label in (("mbil", "MBIL"), ("mbil_c", "MBIL-C")):
+            names = (algo, f"{algo}_next_state_only", f"{algo}_alpha0")
+            means = [f"{np.mean(list(v[x].values())):.1f} ({len(v[x])})" if v.get(x) else "" for x in names]
+            lines.append(f"| {pool} | {n} | {label} | {' | '.join(means)} | "
+                         f"{diff(v.get(names[0], {}), v.get(names[1], {}))} | {diff(v.get(names[0], {}), v.get(names[2], {}))} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="LunarLander-v3")
+    p.add_argument("--pools", nargs="+", default=["LunarLander-v3-sampled"])
+    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1])
+    p.add_argument("--seeds", type=parse_seeds, default=list(range(100, 110)))
+    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--csv", default="results/balance_ablation.csv")
+    p.add_argument("--summary", default=None, metavar="CSV", help="print the comparison of a finished CSV and stop")
+    a = p.parse_args(argv)
+    if a.summary:
+        print(summary(a.summary))
+        return
+    if min(a.seeds) < 100:
+        raise ValueError(f"--seeds: expected tuning seeds >= 100, found {min(a.seeds)}")
+    run_ablation(a.env, a.pools, a.n_trajectories, a.seeds, a.variants, a.episodes, a.csv)
+
+
+if __name__ == "__main__":
+    run(main)
