@@ -98,11 +98,10 @@ def run_ablation(env_id: str, pools: list[str], n_trajectories: list[int], seeds
                 models = [cls("MlpPolicy", env_id, expert_data=draw(env_id, pool, n, s), seed=s, **settings) for s in todo]
                 learn_lockstep(models, steps)
                 variant = Variant(entry, overrides)
-                rows = [{k: v for k, v in _row(name, variant, env_id, pool, n, s, m, None, 0.0, n_episodes, commit).items()
-                         if k in COLUMNS} for s, m in zip(todo, models)]
-                append_rows(csv_path, rows, COLUMNS)
-                for r in rows:
-                    print(f"{name} {pool} N={n} seed={r['seed']}: {r['mean_return']:.1f}", flush=True)
+                for s, m in zip(todo, models):  # each row as its evaluation ends
+                    row = _row(name, variant, env_id, pool, n, s, m, None, 0.0, n_episodes, commit)
+                    append_rows(csv_path, [{k: v for k, v in row.items() if k in COLUMNS}], COLUMNS)
+                    print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f}", flush=True)
 
 
 def summary(csv_path: str) -> str:

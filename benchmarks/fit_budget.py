@@ -50,7 +50,6 @@ def run_budgets(env_id: str, pools: list[str], n_trajectories: list[int], seeds:
                 variant = Variant("mbil", BUDGETS[name])
                 draws = {s: draw(env_id, pool, n, s) for s in todo}
                 trained = train_variant_lockstep(variant, env_id, draws)
-                rows = []
                 for s in todo:
                     model, _ = trained[s]
                     row = _row(name, variant, env_id, pool, n, s, model, None, 0.0, n_episodes, commit)
@@ -61,10 +60,9 @@ def run_budgets(env_id: str, pools: list[str], n_trajectories: list[int], seeds:
                                target_mean=round(float(model.tuple_targets().mean()), 4))
                     row.pop("algo"), row.pop("best_step"), row.pop("train_seconds")
                     row["train_seconds"] = ""
-                    rows.append(row)
+                    append_rows(csv_path, [row], COLUMNS)  # each row as its evaluation ends
                     print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f} (fit {row['fit_seconds']} s, "
                           f"{row['fit_steps']} steps)", flush=True)
-                append_rows(csv_path, rows, COLUMNS)
 
 
 def summary(csv_path: str) -> str:
