@@ -32,8 +32,7 @@ BUDGETS = {
     "mbil_fit300_norefit": {"flow_max_steps": 300, "flow_refit": False},
     "mbil_norefit": {"flow_refit": False},
 }
-COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
-           "train_seconds", "fit_seconds", "fit_noise", "fit_steps", "p_heldout_ll", "target_mean", "settings", "commit"]
+COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "fit_seconds", "fit_noise", "fit_steps", "p_heldout_ll", "target_mean", "settings", "commit"]
 KEY = ("variant", "env", "pool", "n_trajectories", "seed")
 
 
@@ -58,8 +57,7 @@ def run_budgets(env_id: str, pools: list[str], n_trajectories: list[int], seeds:
                                fit_steps=report["next_action"]["steps"],
                                p_heldout_ll=round(report["next_action"]["heldout_ll"], 4),
                                target_mean=round(float(model.tuple_targets().mean()), 4))
-                    row.pop("algo"), row.pop("best_step"), row.pop("train_seconds")
-                    row["train_seconds"] = ""
+                    row = {k: v for k, v in row.items() if k in COLUMNS}
                     append_rows(csv_path, [row], COLUMNS)  # each row as its evaluation ends
                     print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f} (fit {row['fit_seconds']} s, "
                           f"{row['fit_steps']} steps)", flush=True)
