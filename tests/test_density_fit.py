@@ -38,3 +38,14 @@ def test_min_delta_stops_a_fit_whose_gains_are_smaller(cartpole_data):
     assert max(c["steps"] for c in plain["next_action"]["candidates"].values()) > 40
     with pytest.raises(ValueError, match="flow_min_delta"):
         MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, flow_min_delta=-1.0)
+
+
+def test_auto_fit_budget_caps_the_categorical_p_at_300_steps(cartpole_data):
+    model = MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, seed=0)
+    assert model.flow_max_steps == "auto" and model._max_steps(flow=False) == 300 and model._max_steps(flow=True) == 1000
+    report = model.fit_flows()
+    assert max(c["steps"] for c in report["next_action"]["candidates"].values()) <= 300
+    assert MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, flow_max_steps=50)._max_steps(flow=False) == 50
+    for bad in ("fast", 0, 2.5):
+        with pytest.raises(ValueError, match="flow_max_steps"):
+            MBIL("MlpPolicy", "CartPole-v1", expert_data=cartpole_data, flow_max_steps=bad)

@@ -53,7 +53,11 @@ class MBIL(OfflineAlgorithm):
     :param flow_scale_limit: bound on each coupling block's |log scale|
     :param flow_learning_rate: Adam learning rate of the flows
     :param flow_batch_size: flow minibatch size
-    :param flow_max_steps: maximum gradient steps of one flow fit
+    :param flow_max_steps: maximum gradient steps of one fit (early stopping on held-out tuples usually ends it
+        sooner). ``"auto"``: 300 for the categorical P(a' | s, a, s') of Discrete actions (factored estimator), 1 000 for
+        every flow (P for Box actions, T, the joint estimator). On LunarLander-v3 (deterministic and sampled pools,
+        N = 1 and 15, tuning seeds 100-109) 300 steps gave returns level with 1 000 (paired differences -4.2 to +1.3)
+        at 0.4x its fit time (``python -m benchmarks.fit_budget``)
     :param flow_eval_every: steps between held-out evaluations (early stopping)
     :param flow_patience: held-out evaluations without improvement before stopping
     :param flow_min_delta: the held-out log-likelihood gain (nats per tuple) that counts as an improvement
@@ -104,7 +108,7 @@ class MBIL(OfflineAlgorithm):
         flow_scale_limit: float = 3.0,
         flow_learning_rate: float = 1e-3,
         flow_batch_size: int = 256,
-        flow_max_steps: int = 1000,
+        flow_max_steps: int | str = "auto",
         flow_eval_every: int = 25,
         flow_patience: int = 10,
         flow_min_delta: float = 0.0,
@@ -161,8 +165,10 @@ class MBIL(OfflineAlgorithm):
         if self.alpha == 0 and self.beta == 0:
             raise ValueError("alpha, beta: expected at least one of them > 0, found both 0")
         self._bc_kind = resolve_bc_loss(self.bc_loss, self.action_space, allowed=("nll", "mse"))
-        for name in ("flow_transforms", "flow_batch_size", "flow_max_steps", "flow_eval_every", "flow_patience"):
+        for name in ("flow_transforms", "flow_batch_size", "flow_eval_every", "flow_patience"):
             setattr(self, name, check_int(name, getattr(self, name), low=1))
+        if self.flow_max_steps != "auto":
+            self.flow_max_steps = check_int("flow_max_steps", self.flow_max_steps, low=1)
         self.flow_embed_dim = check_int("flow_embed_dim", self.flow_embed_dim, low=0)
         self.flow_hidden = check_sizes("flow_hidden", self.flow_hidden)
         self.flow_scale_limit = check_real("flow_scale_limit", self.flow_scale_limit, low=0.0, low_open=True)
@@ -218,7 +224,7 @@ class MBIL(OfflineAlgorithm):
             noise_grid=self.noise_grid,
             learning_rate=self.flow_learning_rate,
             batch_size=self.flow_batch_size,
-            max_steps=self.flow_max_steps,
+            max_steps=self._max_steps(flow=True),
             eval_every=self.flow_eval_every,
             patience=self.flow_patience,
             min_delta=self.flow_min_delta,
@@ -251,7 +257,8 @@ class MBIL(OfflineAlgorithm):
         else:
             fitted_p, report_p = fit_conditional_density(
                 self.flows.make_next_action, *self.flows.next_action_inputs(s, a, s_next, a_next), train_idx, val_idx,
-                **common, log=self._fit_log("P(a' | s, a, s')"),
+                **{**common, "max_steps": self._max_steps(flow=not self.flows.discrete)},
+                log=self._fit_log("P(a' | s, a, s')"),
             )
             self.flows.next_action.load_state_dict(fitted_p.state_dict())
             # log P = log T + log P(a' | s, a, s'), on the same held-out tuples
@@ -270,6 +277,12 @@ class MBIL(OfflineAlgorithm):
         }
         self._targets = None
         return self.flow_report
+
+    def _max_steps(self, flow: bool) -> int:
+        """``flow_max_steps`` of one fit: with ``"auto"``, 1 000 for a flow and 300 for the categorical P."""
+        if self.flow_max_steps != "auto":
+            return self.flow_max_steps
+        return 1000 if flow else 300
 
     @th.no_grad()
     def balance_target(self, s: th.Tensor, a: th.Tensor, s_next: th.Tensor, a_next: th.Tensor) -> th.Tensor:
