@@ -7,8 +7,9 @@ run's time goes (imports, set-up, the models' fit, the policy updates, and with 
         --csv results/speed_whole_run.csv
 
 The variants: ``mbil`` (the paper's MBIL, factored estimator, its defaults), ``mbil+T`` (the same with
-``fit_transition=True``, the cost of fitting T before it was skipped: T cancels from the factored target) and
-``mbil_c``. Every run uses one torch thread. The ratio is per repeat (the same machine load), reported as medians.
+``fit_transition=True``, the cost of fitting T before it was skipped: T cancels from the factored target),
+``mbil_fit1000`` (P's fit at up to 1 000 steps, the budget before ``flow_max_steps="auto"``) and ``mbil_c``. Every
+run uses one torch thread. The ratio is per repeat (the same machine load), reported as medians.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from benchmarks.harness.grid import git_commit
 from benchmarks.harness.results import append_rows
 
 VARIANTS = {"bc": ("bc", {}), "mbil": ("mbil", {}), "mbil+T": ("mbil", {"fit_transition": True}),
+            "mbil_fit1000": ("mbil", {"flow_max_steps": 1000}),
             "mbil_c": ("mbil_c", {})}
 SPLIT = ["imports_s", "setup_s", "fit_s", "updates_s", "evaluation_s"]
 COLUMNS = ["env", "n_trajectories", "repeat", "variant", "cpu_seconds", "wall_seconds", "bc_cpu_seconds",
