@@ -23,7 +23,9 @@ from sb3_mbil.experts.controllers import native_demo, native_env
 CLEAN_ERRORS = (ValueError, FileNotFoundError, FloatingPointError)
 
 
-def _bad_values(default):
+def _bad_values(default, annotation=""):
+    if isinstance(default, str) and "int" in str(annotation):  # an integer or a word (e.g. flow_max_steps="auto")
+        return ["no-such-choice", 0, 1.5]
     if isinstance(default, bool):
         return ["yes", 1.5]
     if isinstance(default, int):
@@ -55,7 +57,7 @@ def cases(workdir: Path) -> list[Case]:
         for arg, p in inspect.signature(algo.__init__).parameters.items():
             if arg in skip:
                 continue
-            for value in _bad_values(p.default) + (["abc", -1] if arg == "seed" else []):
+            for value in _bad_values(p.default, p.annotation) + (["abc", -1] if arg == "seed" else []):
                 if arg == "log_density_floor" and isinstance(value, float) and np.isfinite(value):
                     continue
                 out.append(Case("constructor argument", f"{name}({arg}={value!r})", arg,
