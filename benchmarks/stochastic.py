@@ -29,15 +29,17 @@ import numpy as np
 import torch as th
 
 from sb3_mbil import ALGORITHMS
-from benchmarks.harness.cli import parse_seeds
+from benchmarks.harness.cli import parse_seeds, positive_int
 from benchmarks.harness.grid import git_commit, tuned_settings
 from benchmarks.harness.results import append_rows, finished_keys
 from sb3_mbil.common.demonstrations import load_demonstrations
 from sb3_mbil.common.evaluation import evaluate
 from sb3_mbil.common.heldout import ValidationCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 COLUMNS = ["variant", "algo", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
            "train_seconds", "best_step", "settings", "commit"]
+CURVE_COLUMNS = [*COLUMNS, "curve"]  # the curves' CSVs: each row's learning curve, JSON [[update, mean return], ...]
 KEY = ("variant", "env", "pool", "n_trajectories", "seed")
 
 
@@ -128,30 +130,73 @@ class EnsemblePolicy:
         return (actions if vectorized else actions[0]), None
 
 
+@dataclass(frozen=True)
+class Curve:
+    """Figure 4's protocol: the greedy policy scored every ``every`` updates on ``episodes`` episodes."""
+
+    every: int = 500
+    episodes: int = 10
+
+
+class CurveCallback(BaseCallback):
+    """Scores a seed's policy (the mean of its ensemble's members, all at the same update in lockstep) every
+    ``curve.every`` updates; episode i of the point at update k is reset with seed 2 000 000 + 1 000 * seed + i."""
+
+    def __init__(self, members: list, env_id: str, curve: Curve, seed: int):
+        super().__init__()
+        self.members, self.env_id, self.curve, self.run_seed = members, env_id, curve, seed
+        self.points: list[list] = []
+
+    def _on_step(self) -> bool:
+        step = self.model.num_timesteps
+        if step % self.curve.every == 0:
+            policy = self.members[0] if len(self.members) == 1 else EnsemblePolicy(self.members)
+            returns = evaluate(policy, self.env_id, self.curve.episodes, seed=2_000_000 + 1_000 * self.run_seed,
+                               n_envs=self.curve.episodes)
+            self.points.append([step, round(float(returns.mean()), 2)])
+        return True
+
+
+def _callbacks(*callbacks):
+    present = [c for c in callbacks if c is not None]
+    return None if not present else (present[0] if len(present) == 1 else CallbackList(present))
+
+
 def draw(env_id: str, pool: str, n_trajectories: int, seed: int):
     """The N trajectories a run of ``seed`` trains on: drawn from ``pool`` (a shipped pool name or a ``.npz``)."""
     return load_demonstrations(pool).sample(n_trajectories, seed=seed)
 
 
-def train_variant(variant: Variant, env_id: str, demos, seed: int) -> tuple[Any, int | None]:
-    """Train one variant on ``demos``; returns something with ``predict`` and the best step of early stopping."""
+def _early_stop(variant: Variant, seed: int) -> ValidationCallback | None:
+    if not variant.early_stop:
+        return None
+    return ValidationCallback(holdout_fraction=0.2, eval_freq=500, block_length=50, monitor="bc_loss",
+                              restore_best=True, seed=seed)
+
+
+def train_variant(variant: Variant, env_id: str, demos, seed: int, curve: Curve | None = None) -> tuple[Any, int | None]:
+    """Train one variant on ``demos``; returns something with ``predict`` and the best step of early stopping (with
+    ``curve``, the model's ``curve`` attribute holds the learning curve's points)."""
+    if curve is not None and variant.ensemble > 1:
+        raise ValueError("curve: the learning curve of an ensemble is scored in lockstep (train_variant_lockstep)")
     settings = tuned_settings(variant.algo, env_id, variant.settings)
     steps = int(float(settings.pop("n_timesteps")))
     models, best_step = [], None
     for j in range(variant.ensemble):
         model = ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=demos, seed=seed + 10_000 * j, **settings)
-        callback = None
-        if variant.early_stop:
-            callback = ValidationCallback(holdout_fraction=0.2, eval_freq=500, block_length=50, monitor="bc_loss",
-                                          restore_best=True, seed=seed)
-        model.learn(steps, callback=callback)
-        if callback is not None:
-            best_step = callback.best_step
+        stopper = _early_stop(variant, seed)
+        scorer = CurveCallback([model], env_id, curve, seed) if curve is not None else None
+        model.learn(steps, callback=_callbacks(stopper, scorer))
+        if stopper is not None:
+            best_step = stopper.best_step
+        if scorer is not None:
+            model.curve = scorer.points
         models.append(model)
     return (models[0] if len(models) == 1 else EnsemblePolicy(models)), best_step
 
 
-def train_variant_lockstep(variant: Variant, env_id: str, draws: dict[int, Any]) -> dict[int, tuple[Any, int | None]]:
+def train_variant_lockstep(variant: Variant, env_id: str, draws: dict[int, Any],
+                           curve: Curve | None = None) -> dict[int, tuple[Any, int | None]]:
     """:func:`train_variant` for several seeds (``draws``: seed -> its data) at once: every seed's models (and every
     ensemble member) trained in lockstep (:func:`sb3_mbil.learn_lockstep`), each bit for bit its separate run, early
     stopping's callback one per model. An algorithm that cannot train in lockstep trains seed by seed."""
@@ -163,25 +208,34 @@ def train_variant_lockstep(variant: Variant, env_id: str, draws: dict[int, Any])
     models = [ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=draws[seed], seed=seed + 10_000 * j, **settings)
               for seed, j in members]
     if not models[0].supports_lockstep():
-        return {seed: train_variant(variant, env_id, demos, seed) for seed, demos in draws.items()}
-    callbacks = [ValidationCallback(holdout_fraction=0.2, eval_freq=500, block_length=50, monitor="bc_loss",
-                                    restore_best=True, seed=seed) if variant.early_stop else None for seed, _ in members]
-    learn_lockstep(models, steps, callbacks=callbacks)
+        return {seed: train_variant(variant, env_id, demos, seed, curve) for seed, demos in draws.items()}
+    stoppers = [_early_stop(variant, seed) for seed, _ in members]
+    scorers: list[CurveCallback | None] = [None] * len(members)
+    if curve is not None:  # on each seed's last member: at its callback every member has made the same updates
+        for seed in draws:
+            mine = [k for k, (s, _) in enumerate(members) if s == seed]
+            scorers[mine[-1]] = CurveCallback([models[k] for k in mine], env_id, curve, seed)
+    learn_lockstep(models, steps, callbacks=[_callbacks(a, b) for a, b in zip(stoppers, scorers)])
     out = {}
     for seed in draws:
         mine = [k for k, (s, _) in enumerate(members) if s == seed]
-        best_step = callbacks[mine[-1]].best_step if variant.early_stop else None  # the last member's, as train_variant
+        best_step = stoppers[mine[-1]].best_step if variant.early_stop else None  # the last member's, as train_variant
         group = [models[k] for k in mine]
-        out[seed] = (group[0] if len(group) == 1 else EnsemblePolicy(group)), best_step
+        policy = group[0] if len(group) == 1 else EnsemblePolicy(group)
+        if curve is not None:
+            policy.curve = scorers[mine[-1]].points
+        out[seed] = policy, best_step
     return out
 
 
 def run_cell(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seed: int,
-             n_episodes: int, commit: str) -> dict[str, Any]:
+             n_episodes: int, commit: str, curve: Curve | None = None) -> dict[str, Any]:
+    """One seed's run and its row (with ``curve``, its learning curve in the row's ``curve`` column, and
+    ``train_seconds`` including the curve's evaluations)."""
     th.set_num_threads(1)
     demos = draw(env_id, pool, n_trajectories, seed)
     t0 = time.perf_counter()
-    policy, best_step = train_variant(variant, env_id, demos, seed)
+    policy, best_step = train_variant(variant, env_id, demos, seed, curve)
     return _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, time.perf_counter() - t0,
                 n_episodes, commit)
 
@@ -194,7 +248,7 @@ def lockstep_ready(variant: Variant, env_id: str, demos) -> bool:
 
 
 def run_cell_lockstep(name: str, variant: Variant, env_id: str, pool: str, n_trajectories: int, seeds: list[int],
-                      n_episodes: int, commit: str) -> Iterator[dict[str, Any]]:
+                      n_episodes: int, commit: str, curve: Curve | None = None) -> Iterator[dict[str, Any]]:
     """:func:`run_cell` for several seeds, trained in lockstep; each seed's row is its own run's, but
     ``train_seconds`` is the seeds' training time divided among them. An algorithm that cannot train in lockstep
     runs seed by seed, each row yielded as its run ends."""
@@ -202,10 +256,10 @@ def run_cell_lockstep(name: str, variant: Variant, env_id: str, pool: str, n_tra
     draws = {seed: draw(env_id, pool, n_trajectories, seed) for seed in seeds}
     if not lockstep_ready(variant, env_id, draws[seeds[0]]):
         for seed in seeds:
-            yield run_cell(name, variant, env_id, pool, n_trajectories, seed, n_episodes, commit)
+            yield run_cell(name, variant, env_id, pool, n_trajectories, seed, n_episodes, commit, curve)
         return
     t0 = time.perf_counter()
-    trained = train_variant_lockstep(variant, env_id, draws)
+    trained = train_variant_lockstep(variant, env_id, draws, curve)
     share = (time.perf_counter() - t0) / len(seeds)
     for seed in seeds:
         yield _row(name, variant, env_id, pool, n_trajectories, seed, *trained[seed], share, n_episodes, commit)
@@ -213,10 +267,13 @@ def run_cell_lockstep(name: str, variant: Variant, env_id: str, pool: str, n_tra
 
 def _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, train_seconds, n_episodes, commit):
     returns = evaluate(policy, env_id, n_episodes, seed=1_000_000 + seed, n_envs=20)
-    return {"variant": name, "algo": variant.algo, "env": env_id, "pool": pool, "n_trajectories": n_trajectories,
-            "seed": seed, "mean_return": float(returns.mean()), "std_return": float(returns.std()),
-            "n_episodes": len(returns), "train_seconds": round(train_seconds, 1),
-            "best_step": "" if best_step is None else best_step, "settings": variant.describe(), "commit": commit}
+    row = {"variant": name, "algo": variant.algo, "env": env_id, "pool": pool, "n_trajectories": n_trajectories,
+           "seed": seed, "mean_return": float(returns.mean()), "std_return": float(returns.std()),
+           "n_episodes": len(returns), "train_seconds": round(train_seconds, 1),
+           "best_step": "" if best_step is None else best_step, "settings": variant.describe(), "commit": commit}
+    if getattr(policy, "curve", None) is not None:
+        row["curve"] = json.dumps(policy.curve)
+    return row
 
 
 def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int) -> dict[str, str]:
@@ -244,8 +301,9 @@ def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int)
 
 def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
         n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None,
-        tuned_algos: list[str] | None = None, lockstep: bool = False) -> None:
+        tuned_algos: list[str] | None = None, lockstep: bool = False, curve: Curve | None = None) -> None:
     """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run.
+    ``curve``: each run also records its learning curve (Figure 4; the rows' ``curve`` column, :data:`CURVE_COLUMNS`).
 
     ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
     tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants. ``lockstep``:
@@ -272,7 +330,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         return list(dict.fromkeys([*variants, *best.values()]))
 
     def report(row: dict) -> None:
-        append_rows(csv_path, [row], COLUMNS)
+        append_rows(csv_path, [row], CURVE_COLUMNS if curve is not None else COLUMNS)
         print(f"{row['variant']} {env_id} {row['pool']} N={row['n_trajectories']} seed={row['seed']}: "
               f"{row['mean_return']:.1f} ({row['train_seconds']} s)", flush=True)
 
@@ -282,7 +340,8 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
                 for name in names(pool, n):
                     todo = [seed for seed in seeds if (name, env_id, pool, str(n), str(seed)) not in done]
                     if todo:
-                        for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit):
+                        for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit,
+                                                     curve):
                             report(row)
         return
     for seed in seeds:
@@ -290,7 +349,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
             for n in n_trajectories:
                 for name in names(pool, n):
                     if (name, env_id, pool, str(n), str(seed)) not in done:
-                        report(run_cell(name, table[name], env_id, pool, n, seed, n_episodes, commit))
+                        report(run_cell(name, table[name], env_id, pool, n, seed, n_episodes, commit, curve))
 
 
 def main(argv=None) -> None:
@@ -307,6 +366,9 @@ def main(argv=None) -> None:
     parser.add_argument("--tuned-from", default=None, help="tuning CSV: also run each algorithm's best variant")
     parser.add_argument("--tuning-pool", default=None, help="with --tuned-from: the pool whose tuning picks them")
     parser.add_argument("--tuned-algos", nargs="+", default=None, help="with --tuned-from: only these algorithms")
+    parser.add_argument("--curve-every", type=positive_int, default=None, metavar="K",
+                        help="also score each run every K updates (Figure 4: 500) on --curve-episodes episodes")
+    parser.add_argument("--curve-episodes", type=positive_int, default=10)
     parser.add_argument("--lockstep", action="store_true",
                         help="train the pending seeds of each (variant, pool, N) together (sb3_mbil.learn_lockstep; "
                              "the same rows, cell after cell)")
@@ -314,7 +376,8 @@ def main(argv=None) -> None:
     expand = {"all": sorted(variants_for(args.env)), "baselines": sorted(baseline_variants(args.env))}
     variants = [name for v in args.variants for name in expand.get(v, [v])]
     run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
-        args.tuning_pool, args.tuned_algos, args.lockstep)
+        args.tuning_pool, args.tuned_algos, args.lockstep,
+        Curve(args.curve_every, args.curve_episodes) if args.curve_every else None)
 
 
 if __name__ == "__main__":

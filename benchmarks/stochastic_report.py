@@ -181,9 +181,14 @@ def load(folder: str = "results/stochastic") -> tuple[list, list, list]:
     """The tuning, grid and crossover rows of every env in ``folder``."""
     tuning = [r for f in sorted(glob.glob(os.path.join(folder, "tuning_*.csv"))) for r in read_result_rows(f)]
     grid = [r for f in sorted(glob.glob(os.path.join(folder, "*.csv")))
-            if not os.path.basename(f).startswith(("tuning_", "crossover_")) for r in read_result_rows(f)]
+            if not os.path.basename(f).startswith(("tuning_", "crossover_", "curves_")) for r in read_result_rows(f)]
     cross = [r for f in sorted(glob.glob(os.path.join(folder, "crossover_*.csv"))) for r in read_result_rows(f)]
     return tuning, grid, cross
+
+
+def load_curves(folder: str = "results/stochastic") -> list:
+    """The Figure 4 rows (learning curves on the sampled pools) of every env in ``folder``."""
+    return [r for f in sorted(glob.glob(os.path.join(folder, "curves_*.csv"))) for r in read_result_rows(f)]
 
 
 def sections(folder: str = "results/stochastic", level: str = "##", figure: str = "stochastic_crossover.png",
@@ -199,6 +204,10 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "intervals of paired differences over seeds (the same draw of trajectories for both). 'above'/'below': "
             "the interval excludes zero. BC*, MBIL* and MBIL-C*: each algorithm's best variant on the tuning seeds.", "",
             f"{level} Stochastic demonstrators: the grids (seeds 0-9)", "", grid_table(grid, chosen), "",
+            f"{level} Stochastic demonstrators: Figure 4, one trajectory (seeds 0-4)", "",
+            "The final policy's return (100 episodes) of the runs whose learning curves (every 500 updates on 10 "
+            "episodes) are in `results/stochastic/curves_<env>.csv`.", "",
+            grid_table(load_curves(folder), chosen) or "Not run yet.", "",
             f"{level} Stochastic demonstrators: the noise crossover (seeds 0-4)", "", crossover_table(cross, chosen), "",
             f"![crossover]({figure})", ""]
     if tuning_table_too:

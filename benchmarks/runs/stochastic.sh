@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Stochastic demonstrators on one env (rows in results/stochastic/{tuning_,crossover_,}ENV.csv; rerun to resume:
 # finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster).
-#   bash benchmarks/runs/stochastic.sh ENV tuning|grid|baselines|crossover|crossover-tuning [N ...]
+#   bash benchmarks/runs/stochastic.sh ENV tuning|grid|baselines|curves|crossover|crossover-tuning [N ...]
 # N defaults to 1 3 (tuning, grid, baselines; LunarLander-v3's crossover) or 1 (the MuJoCo crossover).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 env=${1:?ENV}
-stage=${2:?tuning, grid, baselines, crossover or crossover-tuning}
+stage=${2:?tuning, grid, baselines, curves, crossover or crossover-tuning}
 shift 2
 case "$env" in
   Hopper-v4|Walker2d-v4|HalfCheetah-v4|Ant-v4) levels="0 0.1 0.2 0.4"; crossover_n=1;;
@@ -27,6 +27,11 @@ case "$stage" in
   #     where it cannot train in lockstep)
   baselines) python -m benchmarks.stochastic --env $env --pools $env-sampled --variants baselines \
                --n-trajectories ${@:-1 3} --seeds 0-9 --episodes 300 --csv results/stochastic/$env.csv --lockstep;;
+  # 2c. Figure 4 on the sampled pool: one trajectory, seeds 0-4, every 500 updates on 10 episodes (the final policy on
+  #     100), BC, MBIL, MBIL-C, their tuned variants and the baselines
+  curves) python -m benchmarks.stochastic --env $env --pools $env-sampled --variants bc mbil mbil_c baselines \
+            --tuned-from results/stochastic/tuning_$env.csv --n-trajectories ${@:-1} --seeds 0-4 --episodes 100 \
+            --curve-every 500 --curve-episodes 10 --csv results/stochastic/curves_$env.csv --lockstep;;
   # 3. the noise crossover, seeds 0-4, 100 episodes: BC, MBIL, MBIL-C at their defaults, and BC* as chosen on the
   #    sampled pool's tuning for the same N (--tuning-pool; BC's own tuning on each noise pool: crossover-tuning)
   crossover) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants bc mbil mbil_c \
@@ -36,5 +41,5 @@ case "$stage" in
   crossover-tuning) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants $bc_variants \
                --n-trajectories ${@:-$crossover_n} --seeds 100-102 --episodes 100 \
                --csv results/stochastic/tuning_$env.csv --lockstep;;
-  *) echo "stage: expected tuning, grid, baselines, crossover or crossover-tuning, found $stage" >&2; exit 2;;
+  *) echo "stage: expected tuning, grid, baselines, curves, crossover or crossover-tuning, found $stage" >&2; exit 2;;
 esac

@@ -50,3 +50,30 @@ def test_the_baselines_run_at_their_zoo_entries_seed_by_seed_and_join_the_grid_t
     bc = [{**r, "variant": "bc", "algo": "bc", "mean_return": r["mean_return"] - 1.0} for r in rows]
     table = grid_table([{k: str(v) for k, v in r.items()} for r in bc + rows], {})
     assert "| AVRIL | 2 |" in table and "+1.0" in table
+
+
+def test_learning_curves_in_lockstep_are_each_seeds_own_and_an_ensembles_is_scored_as_one():
+    import json
+
+    import pytest
+
+    from benchmarks.stochastic import Curve, EnsemblePolicy, Variant, run_cell, run_cell_lockstep, train_variant
+    from sb3_mbil.common.evaluation import evaluate
+
+    curve = Curve(every=200, episodes=3)
+    single = Variant("bc", {"n_timesteps": 600})
+    lockstep = list(run_cell_lockstep("bc", single, "CartPole-v1", "CartPole-v1-sampled", 1, [0, 1], 3, "t", curve))
+    separate = [run_cell("bc", single, "CartPole-v1", "CartPole-v1-sampled", 1, s, 3, "t", curve) for s in (0, 1)]
+    assert [r["curve"] for r in lockstep] == [r["curve"] for r in separate]
+    assert [p[0] for p in json.loads(lockstep[0]["curve"])] == [200, 400, 600]
+
+    ensemble = Variant("bc", {"n_timesteps": 400}, ensemble=2)
+    from benchmarks.stochastic import draw, train_variant_lockstep
+
+    policy, _ = train_variant_lockstep(ensemble, "CartPole-v1", {5: draw("CartPole-v1", "CartPole-v1-sampled", 1, 5)},
+                                       curve)[5]
+    assert isinstance(policy, EnsemblePolicy) and [p[0] for p in policy.curve] == [200, 400]
+    final = evaluate(policy, "CartPole-v1", 3, seed=2_000_000 + 5_000, n_envs=3)  # the last point: the final ensemble
+    assert policy.curve[-1][1] == round(float(final.mean()), 2)
+    with pytest.raises(ValueError, match="curve"):
+        train_variant(ensemble, "CartPole-v1", draw("CartPole-v1", "CartPole-v1-sampled", 1, 5), 5, curve)
