@@ -177,6 +177,44 @@ def plot_crossover(rows, chosen_by_pool, path: str) -> None:
     plt.close(fig)
 
 
+def plot_curves(rows, chosen, path: str) -> None:
+    """Figure 4 on the sampled pools: per env, the mean learning curve over seeds of BC, BC*, MBIL, MBIL-C and the
+    baselines (nothing written without rows)."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sb3_mbil.common.files import atomic_write
+
+    cells: dict[tuple, dict[str, list]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        cells[(r["env"], r["pool"], int(r["n_trajectories"]))][r["variant"]].append(json.loads(r["curve"]))
+    if not cells:
+        return
+    keys = sorted(cells)
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.5 * len(keys), 3.5), squeeze=False)
+    for ax, key in zip(axes[0], keys):
+        star = chosen.get(key, {}).get("bc")
+        for name, curves in sorted(cells[key].items()):
+            if name not in ("bc", "mbil", "mbil_c", star) and name in variants_for(key[0]):
+                continue  # the other tuned variants: the table has them
+            steps = [p[0] for p in curves[0]]
+            mean = np.mean([[p[1] for p in c] for c in curves if len(c) == len(steps)], axis=0)
+            label = f"BC* ({name})" if name == star and name != "bc" else LABEL.get(name, name)
+            ax.plot(steps, mean, label=f"{label} ({len(curves)})")
+        ax.set_title(f"{key[0]}, {key[1]}, N = {key[2]}")
+        ax.set_xlabel("gradient updates")
+        ax.set_ylabel("return (10 episodes)")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_write(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=100)
+    plt.close(fig)
+
+
 def load(folder: str = "results/stochastic") -> tuple[list, list, list]:
     """The tuning, grid and crossover rows of every env in ``folder``."""
     tuning = [r for f in sorted(glob.glob(os.path.join(folder, "tuning_*.csv"))) for r in read_result_rows(f)]
@@ -208,6 +246,8 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "The final policy's return (100 episodes) of the runs whose learning curves (every 500 updates on 10 "
             "episodes) are in `results/stochastic/curves_<env>.csv`.", "",
             grid_table(load_curves(folder), chosen) or "Not run yet.", "",
+            *([f"![curves]({os.path.join(os.path.dirname(figure), 'stochastic_curves.png')})", ""]
+              if load_curves(folder) else []),
             f"{level} Stochastic demonstrators: the noise crossover (seeds 0-4)", "", crossover_table(cross, chosen), "",
             f"![crossover]({figure})", ""]
     if tuning_table_too:
@@ -225,7 +265,10 @@ def main(argv=None) -> None:
             sections(args.folder)]
     write_text(args.out, "\n".join(text) + "\n")
     tuning, _, cross = load(args.folder)
-    plot_crossover(cross, tuning_table(tuning)[1], os.path.join(os.path.dirname(args.out) or ".", "stochastic_crossover.png"))
+    chosen = tuning_table(tuning)[1]
+    folder = os.path.dirname(args.out) or "."
+    plot_crossover(cross, chosen, os.path.join(folder, "stochastic_crossover.png"))
+    plot_curves(load_curves(args.folder), chosen, os.path.join(folder, "stochastic_curves.png"))
 
 
 if __name__ == "__main__":

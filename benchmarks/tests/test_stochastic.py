@@ -77,3 +77,21 @@ def test_learning_curves_in_lockstep_are_each_seeds_own_and_an_ensembles_is_scor
     assert policy.curve[-1][1] == round(float(final.mean()), 2)
     with pytest.raises(ValueError, match="curve"):
         train_variant(ensemble, "CartPole-v1", draw("CartPole-v1", "CartPole-v1-sampled", 1, 5), 5, curve)
+
+
+def test_the_page_shows_figure_4_from_the_curves_rows(tmp_path):
+    import json
+
+    from benchmarks.harness.results import append_rows
+    from benchmarks.stochastic import CURVE_COLUMNS
+    from benchmarks.stochastic_report import plot_curves, sections, load_curves
+
+    rows = [{"variant": v, "algo": v, "env": "CartPole-v1", "pool": "CartPole-v1-sampled", "n_trajectories": 1,
+             "seed": s, "mean_return": r + s, "std_return": 0.0, "n_episodes": 100, "train_seconds": 1.0,
+             "best_step": "", "settings": "{}", "commit": "t", "curve": json.dumps([[500, r - 50], [1000, r + s]])}
+            for v, r in (("bc", 400.0), ("mbil", 420.0)) for s in range(3)]
+    append_rows(tmp_path / "curves_CartPole-v1.csv", rows, CURVE_COLUMNS)
+    page = sections(str(tmp_path))
+    assert "| MBIL | 3 | 421.0 |" in page and "+20.0" in page and "stochastic_curves.png" in page
+    plot_curves(load_curves(str(tmp_path)), {}, str(tmp_path / "curves.png"))
+    assert (tmp_path / "curves.png").stat().st_size > 1000
