@@ -18,17 +18,16 @@ lockstep (each its separate run), 100 evaluation episodes.
 
 from __future__ import annotations
 
-import argparse
 from collections import defaultdict
 
 import numpy as np
 import torch as th
 
-from benchmarks.harness.cli import parse_seeds, run
+from benchmarks.harness.cli import check_tuning_seeds, probe_parser, run
 from benchmarks.harness.grid import git_commit, tuned_settings
-from benchmarks.harness.report import paired_interval
-from benchmarks.harness.results import append_rows, finished_keys, read_result_rows
-from benchmarks.stochastic import Variant, _row, draw
+from benchmarks.harness.report import paired_verdict
+from benchmarks.harness.results import append_rows, read_result_rows
+from benchmarks.stochastic import Variant, _row, draw, pending_cells
 from sb3_mbil import MBIL, MBILC, learn_lockstep
 from sb3_mbil.mbil.policies import MarkovBalanceModel
 from sb3_mbil.mbil_c.policies import BalanceModel
@@ -79,29 +78,23 @@ VARIANTS = {
 }
 COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "settings",
            "commit"]
-KEY = ("variant", "env", "pool", "n_trajectories", "seed")
 
 
 def run_ablation(env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int], variants: list[str],
                  n_episodes: int, csv_path: str) -> None:
     th.set_num_threads(1)
-    done, commit = finished_keys(csv_path, KEY), git_commit()
-    for pool in pools:
-        for n in n_trajectories:
-            for name in variants:
-                todo = [s for s in seeds if (name, env_id, pool, str(n), str(s)) not in done]
-                if not todo:
-                    continue
-                cls, entry, overrides = VARIANTS[name]
-                settings = tuned_settings(entry, env_id, overrides)
-                steps = int(float(settings.pop("n_timesteps")))
-                models = [cls("MlpPolicy", env_id, expert_data=draw(env_id, pool, n, s), seed=s, **settings) for s in todo]
-                learn_lockstep(models, steps)
-                variant = Variant(entry, overrides)
-                for s, m in zip(todo, models):  # each row as its evaluation ends
-                    row = _row(name, variant, env_id, pool, n, s, m, None, 0.0, n_episodes, commit)
-                    append_rows(csv_path, [{k: v for k, v in row.items() if k in COLUMNS}], COLUMNS)
-                    print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f}", flush=True)
+    commit = git_commit()
+    for pool, n, name, todo in pending_cells(csv_path, env_id, pools, n_trajectories, variants, seeds):
+        cls, entry, overrides = VARIANTS[name]
+        settings = tuned_settings(entry, env_id, overrides)
+        steps = int(float(settings.pop("n_timesteps")))
+        models = [cls("MlpPolicy", env_id, expert_data=draw(env_id, pool, n, s), seed=s, **settings) for s in todo]
+        learn_lockstep(models, steps)
+        variant = Variant(entry, overrides)
+        for s, m in zip(todo, models):  # each row as its evaluation ends
+            row = _row(name, variant, env_id, pool, n, s, m, None, 0.0, n_episodes, commit)
+            append_rows(csv_path, [{k: v for k, v in row.items() if k in COLUMNS}], COLUMNS)
+            print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f}", flush=True)
 
 
 def summary(csv_path: str) -> str:
@@ -115,11 +108,7 @@ def summary(csv_path: str) -> str:
 
     def diff(a: dict, b: dict) -> str:
         common = sorted(set(a) & set(b))
-        if len(common) < 2:
-            return ""
-        d = np.array([a[s] - b[s] for s in common])
-        lo, hi = paired_interval(d)
-        return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] " + ("above" if lo > 0 else "below" if hi < 0 else "level")
+        return paired_verdict([a[s] - b[s] for s in common]) if len(common) >= 2 else ""
 
     for (pool, n), v in sorted(cells.items()):
         for algo, label in (("mbil", "MBIL"), ("mbil_c", "MBIL-C")):
@@ -131,21 +120,12 @@ def summary(csv_path: str) -> str:
 
 
 def main(argv=None) -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--env", default="LunarLander-v3")
-    p.add_argument("--pools", nargs="+", default=["LunarLander-v3-sampled"])
-    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1])
-    p.add_argument("--seeds", type=parse_seeds, default=list(range(100, 110)))
-    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
-    p.add_argument("--episodes", type=int, default=100)
-    p.add_argument("--csv", default="results/balance_ablation.csv")
-    p.add_argument("--summary", default=None, metavar="CSV", help="print the comparison of a finished CSV and stop")
-    a = p.parse_args(argv)
+    a = probe_parser(__doc__, pools=["LunarLander-v3-sampled"], n_trajectories=[1], variants=list(VARIANTS),
+                     choices=list(VARIANTS), csv="results/balance_ablation.csv").parse_args(argv)
     if a.summary:
         print(summary(a.summary))
         return
-    if min(a.seeds) < 100:
-        raise ValueError(f"--seeds: expected tuning seeds >= 100, found {min(a.seeds)}")
+    check_tuning_seeds(a.seeds)
     run_ablation(a.env, a.pools, a.n_trajectories, a.seeds, a.variants, a.episodes, a.csv)
 
 

@@ -13,17 +13,16 @@ which default to ship. Rerun to resume (finished rows are skipped).
 
 from __future__ import annotations
 
-import argparse
 from collections import defaultdict
 
 import numpy as np
 import torch as th
 
-from benchmarks.harness.cli import parse_seeds, run
+from benchmarks.harness.cli import check_tuning_seeds, probe_parser, run
 from benchmarks.harness.grid import git_commit
-from benchmarks.harness.report import paired_interval
-from benchmarks.harness.results import append_rows, finished_keys, read_result_rows
-from benchmarks.stochastic import Variant, _row, draw, train_variant_lockstep
+from benchmarks.harness.report import paired_verdict
+from benchmarks.harness.results import append_rows, read_result_rows
+from benchmarks.stochastic import Variant, _row, draw, pending_cells, train_variant_lockstep
 
 #: the fit budgets compared, each paired against its algorithm's reference ("mbil", "mbil_c"): MBIL's P at up to
 #: 1 000 steps per noise level, then a refit on all the tuples for the chosen steps (MBIL's default until commit
@@ -41,35 +40,29 @@ BUDGETS = {
 
 def _algo(name: str) -> str:
     return "mbil_c" if name.startswith("mbil_c") else "mbil"
-COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "fit_seconds", "fit_noise", "fit_steps", "p_heldout_ll", "target_mean", "settings", "commit"]
-KEY = ("variant", "env", "pool", "n_trajectories", "seed")
+COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "fit_seconds",
+           "fit_noise", "fit_steps", "p_heldout_ll", "target_mean", "settings", "commit"]
 
 
 def run_budgets(env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int], variants: list[str],
                 n_episodes: int, csv_path: str) -> None:
     th.set_num_threads(1)
-    done, commit = finished_keys(csv_path, KEY), git_commit()
-    for pool in pools:
-        for n in n_trajectories:
-            for name in variants:
-                todo = [s for s in seeds if (name, env_id, pool, str(n), str(s)) not in done]
-                if not todo:
-                    continue
-                variant = Variant(_algo(name), BUDGETS[name])
-                draws = {s: draw(env_id, pool, n, s) for s in todo}
-                trained = train_variant_lockstep(variant, env_id, draws)
-                for s in todo:
-                    model, _ = trained[s]
-                    row = _row(name, variant, env_id, pool, n, s, model, None, 0.0, n_episodes, commit)
-                    report = model.flow_report if _algo(name) == "mbil" else model.model_report
-                    row.update(fit_seconds=round(report["fit_seconds"], 2), fit_noise=report["next_action"]["noise"],
-                               fit_steps=report["next_action"]["steps"],
-                               p_heldout_ll=round(report["next_action"]["heldout_ll"], 4),
-                               target_mean=round(float(model.tuple_targets().mean()), 4) if _algo(name) == "mbil" else "")
-                    row = {k: v for k, v in row.items() if k in COLUMNS}
-                    append_rows(csv_path, [row], COLUMNS)  # each row as its evaluation ends
-                    print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f} (fit {row['fit_seconds']} s, "
-                          f"{row['fit_steps']} steps)", flush=True)
+    commit = git_commit()
+    for pool, n, name, todo in pending_cells(csv_path, env_id, pools, n_trajectories, variants, seeds):
+        variant = Variant(_algo(name), BUDGETS[name])
+        trained = train_variant_lockstep(variant, env_id, {s: draw(env_id, pool, n, s) for s in todo})
+        for s in todo:
+            model, _ = trained[s]
+            row = _row(name, variant, env_id, pool, n, s, model, None, 0.0, n_episodes, commit)
+            report = model.flow_report if _algo(name) == "mbil" else model.model_report
+            row.update(fit_seconds=round(report["fit_seconds"], 2), fit_noise=report["next_action"]["noise"],
+                       fit_steps=report["next_action"]["steps"],
+                       p_heldout_ll=round(report["next_action"]["heldout_ll"], 4),
+                       target_mean=round(float(model.tuple_targets().mean()), 4) if _algo(name) == "mbil" else "")
+            row = {k: v for k, v in row.items() if k in COLUMNS}
+            append_rows(csv_path, [row], COLUMNS)  # each row as its evaluation ends
+            print(f"{name} {pool} N={n} seed={s}: {row['mean_return']:.1f} (fit {row['fit_seconds']} s, "
+                  f"{row['fit_steps']} steps)", flush=True)
 
 
 def summary(csv_path: str) -> str:
@@ -90,29 +83,19 @@ def summary(csv_path: str) -> str:
             common = sorted(set(rows) & set(base))
             diff = ""
             if name != _algo(name) and len(common) >= 2:
-                d = np.array([float(rows[s]["mean_return"]) - float(base[s]["mean_return"]) for s in common])
-                lo, hi = paired_interval(d)
-                diff = f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] " + ("above" if lo > 0 else "below" if hi < 0 else "level")
+                diff = paired_verdict([float(rows[s]["mean_return"]) - float(base[s]["mean_return"]) for s in common])
             lines.append(f"| {pool} | {n} | {name} | {len(rows)} | {ret:.1f} | {fit:.2f} | {ll:.3f} | {diff} |")
     return "\n".join(lines)
 
 
 def main(argv=None) -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--env", default="LunarLander-v3")
-    p.add_argument("--pools", nargs="+", default=["LunarLander-v3", "LunarLander-v3-sampled"])
-    p.add_argument("--n-trajectories", type=int, nargs="+", default=[1, 15])
-    p.add_argument("--seeds", type=parse_seeds, default=list(range(100, 110)))
-    p.add_argument("--variants", nargs="+", default=[v for v in BUDGETS if _algo(v) == "mbil"], choices=list(BUDGETS))
-    p.add_argument("--episodes", type=int, default=100)
-    p.add_argument("--csv", default="results/fit_budget.csv")
-    p.add_argument("--summary", default=None, metavar="CSV", help="print the comparison of a finished CSV and stop")
-    a = p.parse_args(argv)
+    a = probe_parser(__doc__, pools=["LunarLander-v3", "LunarLander-v3-sampled"], n_trajectories=[1, 15],
+                     variants=[v for v in BUDGETS if _algo(v) == "mbil"], choices=list(BUDGETS),
+                     csv="results/fit_budget.csv").parse_args(argv)
     if a.summary:
         print(summary(a.summary))
         return
-    if min(a.seeds) < 100:
-        raise ValueError(f"--seeds: expected tuning seeds >= 100, found {min(a.seeds)}")
+    check_tuning_seeds(a.seeds)
     run_budgets(a.env, a.pools, a.n_trajectories, a.seeds, a.variants, a.episodes, a.csv)
 
 

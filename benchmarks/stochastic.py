@@ -276,6 +276,19 @@ def _row(name, variant, env_id, pool, n_trajectories, seed, policy, best_step, t
     return row
 
 
+def pending_cells(csv_path: str, env_id: str, pools: list[str], n_trajectories: list[int], variants: list[str],
+                  seeds: list[int]) -> Iterator[tuple[str, int, str, list[int]]]:
+    """(pool, N, variant, the seeds whose row is not yet in ``csv_path``) for every cell with a seed to run, in order
+    (the probes on tuning seeds resume with it)."""
+    done = finished_keys(csv_path, KEY)
+    for pool in pools:
+        for n in n_trajectories:
+            for name in variants:
+                todo = [s for s in seeds if (name, env_id, pool, str(n), str(s)) not in done]
+                if todo:
+                    yield pool, n, name, todo
+
+
 def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int) -> dict[str, str]:
     """Per algorithm, the variant with the highest mean return over the tuning rows of (env, pool, N); only variants
     with as many seeds as the most-run one compete (a variant still running is not picked on fewer seeds). A tie (at

@@ -19,7 +19,7 @@ from collections import defaultdict
 import numpy as np
 
 from benchmarks.stochastic import best_variants, variants_for
-from benchmarks.harness.report import paired_interval
+from benchmarks.harness.report import paired_verdict
 from benchmarks.harness.results import read_result_rows, write_text
 
 ALGOS = ("bc", "mbil", "mbil_c")
@@ -70,14 +70,6 @@ def tuning_table(rows) -> tuple[str, dict]:
     return "\n".join(lines), chosen
 
 
-def _verdict(d: np.ndarray) -> str:
-    if len(d) < 2:
-        return f"{d.mean():+.1f} (1 seed)"
-    lo, hi = paired_interval(d)
-    word = "above" if lo > 0 else ("below" if hi < 0 else "level")
-    return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] {word}"
-
-
 def grid_table(rows, chosen) -> str:
     """Per (env, pool, N): BC, BC*, MBIL, MBIL*, MBIL-C, MBIL-C* and the baselines that ran (at their zoo entries)
     means, and each against BC* and BC, paired."""
@@ -106,7 +98,7 @@ def grid_table(rows, chosen) -> str:
                 if name == ref or not common:
                     row.append("")
                 else:
-                    row.append(_verdict(np.array([vals[s] - variants[ref][s] for s in common])))
+                    row.append(paired_verdict(np.array([vals[s] - variants[ref][s] for s in common])))
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
     return "\n".join(lines)
@@ -139,7 +131,7 @@ def crossover_table(rows, chosen_by_pool) -> str:
 
             def diff(name):
                 common = sorted(set(variants.get(name, {})) & set(variants.get(star, {})))
-                return "" if not common else _verdict(np.array([variants[name][s] - variants[star][s] for s in common]))
+                return "" if not common else paired_verdict(np.array([variants[name][s] - variants[star][s] for s in common]))
 
             lines.append(f"| {noise_level(pool):g} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
                          f"{cell('mbil_c')} | {diff('mbil')} | {diff('mbil_c')} |")

@@ -88,3 +88,25 @@ def emit(text: str, markdown: str | os.PathLike | None = None) -> None:
         write_text(markdown, text + "\n")
 
 
+
+
+def probe_parser(doc: str, *, pools: list[str], n_trajectories: list[int], variants: list[str],
+                 choices: list[str], csv: str) -> argparse.ArgumentParser:
+    """The options of a probe on tuning seeds (``benchmarks.fit_budget``, ``benchmarks.balance_ablation``): env,
+    pools, N, seeds (100-109 by default), variants, episodes, the CSV, and ``--summary CSV``."""
+    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="LunarLander-v3")
+    p.add_argument("--pools", nargs="+", default=pools)
+    p.add_argument("--n-trajectories", type=positive_int, nargs="+", default=n_trajectories)
+    p.add_argument("--seeds", type=parse_seeds, default=list(range(100, 110)))
+    p.add_argument("--variants", nargs="+", default=variants, choices=choices)
+    p.add_argument("--episodes", type=positive_int, default=100)
+    p.add_argument("--csv", default=csv)
+    p.add_argument("--summary", default=None, metavar="CSV", help="print the comparison of a finished CSV and stop")
+    return p
+
+
+def check_tuning_seeds(seeds: list[int]) -> None:
+    """A probe that picks settings runs on tuning seeds (>= 100) only."""
+    if min(seeds) < 100:
+        raise ValueError(f"--seeds: expected tuning seeds >= 100, found {min(seeds)}")

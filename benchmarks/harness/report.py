@@ -39,6 +39,17 @@ def paired_interval(d) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
+
+def paired_verdict(d) -> str:
+    """The mean of paired differences ``d`` with its 95% interval and a word: "above" / "below" where the interval
+    excludes zero, "level" where it does not (one difference: its value and "(1 seed)")."""
+    d = np.asarray(d, dtype=float)
+    if len(d) < 2:
+        return f"{d.mean():+.1f} (1 seed)"
+    lo, hi = paired_interval(d)
+    word = "above" if lo > 0 else ("below" if hi < 0 else "level")
+    return f"{d.mean():+.1f} [{lo:+.1f}, {hi:+.1f}] {word}"
+
 def read_rows(path: str) -> list[dict]:
     """The grid's rows, typed; a malformed file is refused with its path and line."""
     from benchmarks.harness.results import read_result_rows
