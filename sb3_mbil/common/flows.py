@@ -290,8 +290,8 @@ def fit_conditional_density(
     For each noise level: train on the train split, evaluating the clean held-out
     log-likelihood every ``eval_every`` steps, stop after ``patience`` evaluations
     without a gain of more than ``min_delta`` nats per sample over the last gain that counted,
-    and keep the best point. The noise level with the best held-out log-likelihood wins; with ``refit`` the model is then retrained on
-    all the data with that noise for the chosen number of steps. ``log`` receives one line per noise level
+    and keep the best point. The noise level with the best held-out log-likelihood wins;
+    with ``refit`` the model is then retrained on all the data with that noise for the chosen number of steps. ``log`` receives one line per noise level
     (progress: the algorithms pass ``print`` when ``verbose >= 1``).
     """
     start = time.process_time()
