@@ -291,8 +291,8 @@ def fit_conditional_density(
     log-likelihood every ``eval_every`` steps, stop after ``patience`` evaluations
     without a gain of more than ``min_delta`` nats per sample over the last gain that counted,
     and keep the best point. The noise level with the best held-out log-likelihood wins;
-    with ``refit`` the model is then retrained on all the data with that noise for the chosen number of steps. ``log`` receives one line per noise level
-    (progress: the algorithms pass ``print`` when ``verbose >= 1``).
+    with ``refit`` the model is then retrained on all the data with that noise for the chosen number of steps.
+    ``log`` receives one line per noise level (progress: the algorithms pass ``print`` when ``verbose >= 1``).
     """
     start = time.process_time()
     tr, va = th.as_tensor(train_idx, device=x.device), th.as_tensor(val_idx, device=x.device)
