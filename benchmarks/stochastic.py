@@ -35,7 +35,7 @@ from benchmarks.harness.results import append_rows, finished_keys
 from sb3_mbil.common.demonstrations import load_demonstrations
 from sb3_mbil.common.evaluation import evaluate
 from sb3_mbil.common.heldout import ValidationCallback
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.callbacks import BaseCallback
 
 COLUMNS = ["variant", "algo", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes",
            "train_seconds", "best_step", "settings", "commit"]
@@ -157,11 +157,6 @@ class CurveCallback(BaseCallback):
         return True
 
 
-def _callbacks(*callbacks):
-    present = [c for c in callbacks if c is not None]
-    return None if not present else (present[0] if len(present) == 1 else CallbackList(present))
-
-
 def draw(env_id: str, pool: str, n_trajectories: int, seed: int):
     """The N trajectories a run of ``seed`` trains on: drawn from ``pool`` (a shipped pool name or a ``.npz``)."""
     return load_demonstrations(pool).sample(n_trajectories, seed=seed)
@@ -186,7 +181,7 @@ def train_variant(variant: Variant, env_id: str, demos, seed: int, curve: Curve 
         model = ALGORITHMS[variant.algo]("MlpPolicy", env_id, expert_data=demos, seed=seed + 10_000 * j, **settings)
         stopper = _early_stop(variant, seed)
         scorer = CurveCallback([model], env_id, curve, seed) if curve is not None else None
-        model.learn(steps, callback=_callbacks(stopper, scorer))
+        model.learn(steps, callback=[c for c in (stopper, scorer) if c is not None])  # SB3 makes a list one callback
         if stopper is not None:
             best_step = stopper.best_step
         if scorer is not None:
@@ -215,7 +210,7 @@ def train_variant_lockstep(variant: Variant, env_id: str, draws: dict[int, Any],
         for seed in draws:
             mine = [k for k, (s, _) in enumerate(members) if s == seed]
             scorers[mine[-1]] = CurveCallback([models[k] for k in mine], env_id, curve, seed)
-    learn_lockstep(models, steps, callbacks=[_callbacks(a, b) for a, b in zip(stoppers, scorers)])
+    learn_lockstep(models, steps, callbacks=[[c for c in pair if c is not None] for pair in zip(stoppers, scorers)])
     out = {}
     for seed in draws:
         mine = [k for k, (s, _) in enumerate(members) if s == seed]
