@@ -250,6 +250,26 @@ def test_sampled_actions_pool(tmp_path):
     assert np.all(sampled[0].actions >= space.low) and np.all(sampled[0].actions <= space.high)
 
 
+def test_sampled_actions_of_a_deterministic_actor(tmp_path):
+    """A TD3 expert's sampled actions carry its RL Zoo exploration noise (SB3's predict would return its mean)."""
+    from stable_baselines3 import TD3
+
+    from sb3_mbil.experts.zoo_training import zoo_exploration_noise
+
+    model_zip = tmp_path / "td3-Pendulum-v1.zip"
+    TD3("MlpPolicy", "Pendulum-v1", seed=0).save(model_zip)
+    kw = dict(algo="td3", min_return=-1e9, n_eval_episodes=1, progress=False)
+    det, _ = generate_demonstrations("Pendulum-v1", 1, str(model_zip), seed=3, **kw)
+    sampled, _ = generate_demonstrations("Pendulum-v1", 1, str(model_zip), seed=3, sampled_actions=True, **kw)
+    level = zoo_exploration_noise("Pendulum-v1", "td3")
+    assert level == 0.05  # td3.yml's noise_std 0.1 on [-1, 1]
+    assert sampled.metadata["expert_actions"] == "sampled" and "exploration noise" in sampled.metadata["sampling"]
+    np.testing.assert_array_equal(det[0].observations[0], sampled[0].observations[0])
+    assert not np.allclose(det[0].actions, sampled[0].actions)
+    with pytest.raises(ValueError, match="env: expected an env with RL Zoo hyperparameters for td3"):
+        zoo_exploration_noise("CartPole-v1", "td3")
+
+
 @pytest.mark.parametrize("level", [0.0, 0.2, 1.0])
 def test_noisy_actions_follow_their_definition(level):
     from sb3_mbil.experts.agents import noisy_actions

@@ -60,6 +60,8 @@ class Expert:
 
 #: RL Zoo algorithms whose policy is greedy in a Q function (sampled with epsilon-greedy, see generate_demonstrations)
 VALUE_BASED = ("dqn", "qrdqn")
+#: RL Zoo algorithms with a deterministic actor (sampled with the zoo's exploration noise, see generate_demonstrations)
+DETERMINISTIC_ACTORS = ("td3", "ddpg")
 
 
 def algo_of(expert: Expert) -> str:

@@ -28,9 +28,9 @@ import gymnasium as gym
 import numpy as np
 
 from sb3_mbil.common.demonstrations import Demonstrations, Trajectory
-from sb3_mbil.experts.agents import VALUE_BASED, Expert, algo_of, load_expert_file, load_hub_expert, noisy_actions
+from sb3_mbil.experts.agents import DETERMINISTIC_ACTORS, VALUE_BASED, Expert, algo_of, load_expert_file, load_hub_expert, noisy_actions
 from sb3_mbil.experts.specs import EXPERTS, expert_spec
-from sb3_mbil.experts.zoo_training import refuse_zoo_run, train_zoo_expert
+from sb3_mbil.experts.zoo_training import refuse_zoo_run, train_zoo_expert, zoo_exploration_noise
 from sb3_mbil.version import __version__
 
 
@@ -161,6 +161,9 @@ def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub
 
     :param sampled_actions: record actions sampled from the expert's policy (torch seeded with
         ``seed``) instead of its deterministic actions; the acceptance test stays deterministic.
+        A deterministic actor (TD3, DDPG) samples as it explores in its RL Zoo training: Gaussian noise at the zoo's
+        ``noise_std`` on the action scaled to [-1, 1], clipped (:func:`zoo_exploration_noise`); SB3's
+        ``predict(deterministic=False)`` returns its deterministic action.
     :param dqn_epsilon: with ``sampled_actions``, a value-based expert (DQN, QR-DQN), whose policy is greedy, samples
         epsilon-greedily at this epsilon (uniform over all actions, seeded with ``seed``, independently per episode),
         a setting whose return stays within 10% of the greedy one for the shipped DQN experts (docs/experts.md).
@@ -181,6 +184,10 @@ def generate_demonstrations(env_id: str, n_trajectories: int, source: str = "hub
     if sampled_actions and algo_of(expert) in VALUE_BASED:
         action_noise, sampling = dqn_epsilon, f"epsilon-greedy over Q, epsilon={dqn_epsilon:g}"
         noisy_actions(np.zeros(1), gym.spaces.Box(-1, 1, (1,)), action_noise, np.random.default_rng(0))
+    elif sampled_actions and algo_of(expert) in DETERMINISTIC_ACTORS:
+        action_noise = zoo_exploration_noise(env_id, algo_of(expert))
+        sampling = (f"the RL Zoo's exploration noise: Gaussian, std {2 * action_noise:g} on the action scaled to "
+                    f"[-1, 1] ({action_noise:g} of the range), clipped")
     elif sampled_actions:
         import torch as th
 

@@ -369,7 +369,8 @@ def _write_json(path: Path, data: dict) -> None:
     os.replace(tmp, path)
 
 
-def _zoo_budget(env_id: str, algo: str) -> int:
+def zoo_hyperparams(env_id: str, algo: str) -> dict[str, Any]:
+    """rl_zoo3's shipped hyperparameters of ``algo`` on ``env_id`` (its ``hyperparams/<algo>.yml``, parsed)."""
     import rl_zoo3
     import yaml
 
@@ -377,4 +378,19 @@ def _zoo_budget(env_id: str, algo: str) -> int:
         table = yaml.safe_load(f)
     if env_id not in table:
         raise ValueError(f"env: expected an env with RL Zoo hyperparameters for {algo}, found {env_id!r} (not in {algo}.yml)")
-    return int(float(table[env_id]["n_timesteps"]))
+    return table[env_id]
+
+
+def zoo_exploration_noise(env_id: str, algo: str) -> float:
+    """The Gaussian exploration noise rl_zoo3 trains a deterministic actor (TD3, DDPG) with on ``env_id``, as a share
+    of the action range (:func:`~sb3_mbil.experts.agents.noisy_actions`' level): SB3 adds N(0, noise_std) to the
+    action scaled to [-1, 1] and clips it there, so the level is noise_std / 2."""
+    params = zoo_hyperparams(env_id, algo)
+    if params.get("noise_type") != "normal" or "noise_std" not in params:
+        raise ValueError(f"noise_type: expected the RL Zoo's 'normal' exploration noise with a noise_std for {algo} on "
+                         f"{env_id}, found {params.get('noise_type')!r}")
+    return float(params["noise_std"]) / 2
+
+
+def _zoo_budget(env_id: str, algo: str) -> int:
+    return int(float(zoo_hyperparams(env_id, algo)["n_timesteps"]))
