@@ -18,7 +18,9 @@ Every variant is tried with the same budget (:data:`TUNING_BUDGET`) on tuning se
 from __future__ import annotations
 
 import argparse
+import csv
 import json
+import os
 import time
 from dataclasses import asdict, dataclass, field
 from collections.abc import Iterator
@@ -324,6 +326,12 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
     unknown = [v for v in variants if v not in table]
     if unknown:
         raise ValueError(f"variants: expected names from {sorted(table)}, found {unknown}")
+    if curve is not None and os.path.exists(csv_path) and os.path.getsize(csv_path):
+        with open(csv_path, newline="") as f:
+            header = next(csv.reader(f), [])
+        if "curve" not in header:
+            raise ValueError(f"csv: expected a file with a 'curve' column to record learning curves in, found "
+                             f"{csv_path} with columns {header}")
     tuning = read_result_rows(tuned_from) if tuned_from else []
     done = finished_keys(csv_path, KEY)
     commit = git_commit()
@@ -338,7 +346,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         return list(dict.fromkeys([*variants, *best.values()]))
 
     def report(row: dict) -> None:
-        append_rows(csv_path, [row], CURVE_COLUMNS if curve is not None else COLUMNS)
+        append_rows(csv_path, [row], CURVE_COLUMNS)  # a new file's header; an existing file keeps its own
         print(f"{row['variant']} {env_id} {row['pool']} N={row['n_trajectories']} seed={row['seed']}: "
               f"{row['mean_return']:.1f} ({row['train_seconds']} s)", flush=True)
 

@@ -217,8 +217,10 @@ def load(folder: str = "results/stochastic") -> tuple[list, list, list]:
 
 
 def load_curves(folder: str = "results/stochastic") -> list:
-    """The Figure 4 rows (learning curves on the sampled pools) of every env in ``folder``."""
-    return [r for f in sorted(glob.glob(os.path.join(folder, "curves_*.csv"))) for r in read_result_rows(f)]
+    """The Figure 4 rows (learning curves on the sampled pools) of every env in ``folder``: the ``curves_<env>.csv``
+    runs, and the grid's runs that recorded their curve (the MuJoCo envs' one-trajectory grid is Figure 4)."""
+    return [*(r for f in sorted(glob.glob(os.path.join(folder, "curves_*.csv"))) for r in read_result_rows(f)),
+            *(r for r in load(folder)[1] if r.get("curve"))]
 
 
 def sections(folder: str = "results/stochastic", level: str = "##", figure: str = "stochastic_crossover.png",
@@ -234,9 +236,11 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "intervals of paired differences over seeds (the same draw of trajectories for both). 'above'/'below': "
             "the interval excludes zero. BC*, MBIL* and MBIL-C*: each algorithm's best variant on the tuning seeds.", "",
             f"{level} Stochastic demonstrators: the grids (seeds 0-9)", "", grid_table(grid, chosen), "",
-            f"{level} Stochastic demonstrators: Figure 4, one trajectory (seeds 0-4)", "",
-            "The final policy's return (100 episodes) of the runs whose learning curves (every 500 updates on 10 "
-            "episodes) are in `results/stochastic/curves_<env>.csv`.", "",
+            f"{level} Stochastic demonstrators: Figure 4, one trajectory", "",
+            "The final policy's return of the runs that recorded their learning curve (every 500 updates on 10 "
+            "episodes): on the MuJoCo envs the grid's one-trajectory runs (seeds 0-9, 300 episodes, in "
+            "`results/stochastic/<env>.csv`), elsewhere `results/stochastic/curves_<env>.csv` (seeds 0-4, 100 "
+            "episodes).", "",
             grid_table(load_curves(folder), chosen) or "Not run yet.", "",
             *([f"![curves]({os.path.join(os.path.dirname(figure), 'stochastic_curves.png')})", ""]
               if load_curves(folder) else []),

@@ -95,3 +95,22 @@ def test_the_page_shows_figure_4_from_the_curves_rows(tmp_path):
     assert "| MBIL | 3 | 421.0 |" in page and "+20.0" in page and "stochastic_curves.png" in page
     plot_curves(load_curves(str(tmp_path)), {}, str(tmp_path / "curves.png"))
     assert (tmp_path / "curves.png").stat().st_size > 1000
+
+    # the MuJoCo envs' Figure 4: the grid's one-trajectory runs that recorded their curve (rows without one stay out)
+    grid = tmp_path / "grid"
+    hopper = [{**r, "env": "Hopper-v4", "pool": "Hopper-v4-sampled"} for r in rows]
+    append_rows(grid / "Hopper-v4.csv", [*hopper, {**hopper[0], "n_trajectories": 3, "curve": ""}], CURVE_COLUMNS)
+    assert len(load_curves(str(grid))) == len(rows)
+    assert "| MBIL | 3 | 421.0 |" in sections(str(grid))
+
+
+def test_curves_go_only_to_a_file_that_keeps_them(tmp_path):
+    import pytest
+
+    from benchmarks.harness.results import append_rows
+    from benchmarks.stochastic import COLUMNS, Curve, run
+
+    old = tmp_path / "CartPole-v1.csv"
+    append_rows(old, [{c: "x" for c in COLUMNS}], COLUMNS)
+    with pytest.raises(ValueError, match="csv: expected a file with a 'curve' column"):
+        run(["bc"], "CartPole-v1", ["CartPole-v1-sampled"], [1], [0], 3, str(old), curve=Curve(100, 2))
