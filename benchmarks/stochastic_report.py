@@ -223,6 +223,68 @@ def load_curves(folder: str = "results/stochastic") -> list:
             *(r for r in load(folder)[1] if r.get("curve"))]
 
 
+#: the study's envs (the seven benchmark envs), the N of its grids, and its seeds per stage
+STUDY_ENVS = ("CartPole-v1", "Acrobot-v1", "LunarLander-v3", "Hopper-v4", "HalfCheetah-v4", "Walker2d-v4", "Ant-v4")
+GRID_N = (1, 3, 7, 10, 15)
+CROSSOVER = {"LunarLander-v3": (1, 3), "Hopper-v4": (1,), "Walker2d-v4": (1,)}
+MUJOCO = ("Hopper-v4", "HalfCheetah-v4", "Walker2d-v4", "Ant-v4")
+
+
+def coverage_table(folder: str = "results/stochastic") -> str:
+    """Markdown: for each env of the study, how many of each stage's planned runs have a row (done / planned; '?'
+    where the plan waits on a tuning that has not finished), so that what ran on fewer seeds is stated."""
+    from benchmarks.stochastic import TUNING_SEEDS, baseline_variants
+    from sb3_mbil.common.demonstrations import available_pools
+
+    tuning, grid, cross = load(folder)
+    curves = load_curves(folder)
+    chosen = tuning_table(tuning)[1]
+
+    def count(rows, env, pool, n, names=None):
+        return sum(1 for r in rows if (r["env"], r["pool"], int(r["n_trajectories"])) == (env, pool, n)
+                   and (names is None or r["variant"] in names))
+
+    def cell(done, planned):
+        return f"{done}/{planned}" if planned != "?" else f"{done}/?"
+
+    ns = ", ".join(map(str, GRID_N))
+    lines = [f"| env | sampled pool | tuning (N = {ns}) | grid: BC, MBIL, MBIL-C and tuned (N = {ns}) | baselines "
+             f"(N = {ns}) | Figure 4 | noise crossover |",
+             "|---|---|---|---|---|---|---|"]
+    for env in STUDY_ENVS:
+        pool = f"{env}-sampled"
+        if pool not in available_pools():
+            lines.append(f"| {env} | not yet | | | | | |")
+            continue
+        n_tuning = len(variants_for(env)) * len(TUNING_SEEDS)
+        tuned = []
+        for n in GRID_N:
+            best = chosen.get((env, pool, n), {})
+            names = set(ALGOS) | {best[a] for a in ALGOS if a in best}
+            planned = 10 * len(names) if len(best) == len(ALGOS) else "?"
+            tuned.append(cell(count(grid, env, pool, n, names | set(variants_for(env))), planned))
+        baselines = baseline_variants(env)
+        mujoco = env in MUJOCO
+        best1 = chosen.get((env, pool, 1), {})
+        figure4 = 10 * (len(set(ALGOS) | set(best1.values())) + len(baselines)) if len(best1) == len(ALGOS) else "?"
+        done4 = sum(1 for r in curves if (r["env"], int(r["n_trajectories"])) == (env, 1))
+        levels = sorted({r["pool"] for r in cross if r["env"] == env})
+
+        def crossover(n):
+            star = chosen.get((env, pool, n), {}).get("bc")
+            planned = 4 * 5 * len({"bc", "mbil", "mbil_c", star}) if star else "?"
+            return cell(sum(count(cross, env, p, n) for p in levels), planned)
+
+        lines.append(" | ".join([
+            f"| {env}", "shipped",
+            " / ".join(cell(count(tuning, env, pool, n, set(variants_for(env))), n_tuning) for n in GRID_N),
+            " / ".join(tuned),
+            " / ".join(cell(count(grid, env, pool, n, set(baselines)), 10 * len(baselines)) for n in GRID_N),
+            cell(done4, figure4) if mujoco else (f"{done4} (not asked)" if done4 else "not asked"),
+            " / ".join(crossover(n) for n in CROSSOVER[env]) if env in CROSSOVER else "not asked"]) + " |")
+    return "\n".join(lines)
+
+
 def sections(folder: str = "results/stochastic", level: str = "##", figure: str = "stochastic_crossover.png",
              tuning_table_too: bool = True) -> str:
     """The study's tables as Markdown sections at heading ``level`` (the grids, the crossover and its figure at the
@@ -235,6 +297,12 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "episodes (100 for tuning and the noise crossover, 300 for the grids); intervals are 95% Student-t "
             "intervals of paired differences over seeds (the same draw of trajectories for both). 'above'/'below': "
             "the interval excludes zero. BC*, MBIL* and MBIL-C*: each algorithm's best variant on the tuning seeds.", "",
+            f"{level} Stochastic demonstrators: what has run", "",
+            "Runs with a row, against the runs the protocol plans (tuning: every configuration on 3 tuning seeds; "
+            "grids and baselines: 10 seeds; Figure 4, the MuJoCo envs: the grid's one-trajectory runs with their "
+            "curves; crossover: 4 noise levels x BC, BC*, MBIL, MBIL-C x 5 seeds; each N separated by '/'; '?': waits "
+            "on the tuning of that N).", "",
+            coverage_table(folder), "",
             f"{level} Stochastic demonstrators: the grids (seeds 0-9)", "", grid_table(grid, chosen), "",
             f"{level} Stochastic demonstrators: Figure 4, one trajectory", "",
             "The final policy's return of the runs that recorded their learning curve (every 500 updates on 10 "
