@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import json
 import os
 import time
@@ -63,6 +64,12 @@ def _discrete(env_id: str) -> bool:
 
 
 def variants_for(env_id: str) -> dict[str, Variant]:
+    """:func:`_variants_for`, read once per env (the report asks for it per row; each read parses the zoo files)."""
+    return dict(_variants_for(env_id))
+
+
+@functools.lru_cache(maxsize=None)
+def _variants_for(env_id: str) -> dict[str, Variant]:
     """The tuning grid of an env's action space: for each algorithm the same number of configurations (the budget).
 
     Every algorithm: its zoo entry, weight decay at the values of {0, 1e-3, 1e-2} other than the entry's (two for
