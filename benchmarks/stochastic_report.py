@@ -21,6 +21,7 @@ import numpy as np
 from benchmarks.stochastic import best_variants, variants_for
 from benchmarks.harness.report import paired_verdict
 from benchmarks.harness.results import read_result_rows, write_text
+from sb3_mbil.experts import EXPERTS
 
 ALGOS = ("bc", "mbil", "mbil_c")
 
@@ -223,8 +224,9 @@ def load_curves(folder: str = "results/stochastic") -> list:
             *(r for r in load(folder)[1] if r.get("curve"))]
 
 
-#: the study's envs (the seven benchmark envs), the N of its grids, and its seeds per stage
-STUDY_ENVS = ("CartPole-v1", "Acrobot-v1", "LunarLander-v3", "Hopper-v4", "HalfCheetah-v4", "Walker2d-v4", "Ant-v4")
+#: the study's envs (the seven benchmark envs, those with an expert), the N of its grids, the N of each noise
+#: crossover (benchmarks/runs/stochastic.sh), and the envs whose Figure 4 is the grid's one-trajectory runs
+STUDY_ENVS = tuple(EXPERTS)
 GRID_N = (1, 3, 7, 10, 15)
 CROSSOVER = {"LunarLander-v3": (1, 3), "Hopper-v4": (1,), "Walker2d-v4": (1,)}
 MUJOCO = ("Hopper-v4", "HalfCheetah-v4", "Walker2d-v4", "Ant-v4")
@@ -245,7 +247,7 @@ def coverage_table(folder: str = "results/stochastic") -> str:
                    and (names is None or r["variant"] in names))
 
     def cell(done, planned):
-        return f"{done}/{planned}" if planned != "?" else f"{done}/?"
+        return f"{done}/{planned}"
 
     ns = ", ".join(map(str, GRID_N))
     lines = [f"| env | sampled pool | tuning (N = {ns}) | grid: BC, MBIL, MBIL-C and tuned (N = {ns}) | baselines "
