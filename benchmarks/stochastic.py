@@ -360,12 +360,9 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
     if lockstep:
         for pool in pools:
             for n in n_trajectories:
-                for name in names(pool, n):
-                    todo = [seed for seed in seeds if (name, env_id, pool, str(n), str(seed)) not in done]
-                    if todo:
-                        for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit,
-                                                     curve):
-                            report(row)
+                for _, _, name, todo in pending_cells(csv_path, env_id, [pool], [n], names(pool, n), seeds):
+                    for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit, curve):
+                        report(row)
         return
     for seed in seeds:
         for pool in pools:

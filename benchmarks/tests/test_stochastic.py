@@ -118,3 +118,29 @@ def test_curves_go_only_to_a_file_that_keeps_them(tmp_path):
     append_rows(old, [{c: "x" for c in COLUMNS}], COLUMNS)
     with pytest.raises(ValueError, match="csv: expected a file with a 'curve' column"):
         run(["bc"], "CartPole-v1", ["CartPole-v1-sampled"], [1], [0], 3, str(old), curve=Curve(100, 2))
+
+
+def test_a_lockstep_run_resumes_with_the_seeds_that_have_no_row(tmp_path, monkeypatch):
+    import benchmarks.stochastic as study
+    from benchmarks.harness.results import append_rows
+
+    csv_path = tmp_path / "CartPole-v1.csv"
+    ran = []
+
+    def fake_cell(name, variant, env_id, pool, n, seeds, n_episodes, commit, curve):
+        ran.append((name, n, list(seeds)))
+        for seed in seeds:
+            yield {c: "x" for c in study.CURVE_COLUMNS} | {"variant": name, "env": env_id, "pool": pool,
+                                                            "n_trajectories": n, "seed": seed, "mean_return": 1.0,
+                                                            "train_seconds": 0.0}
+
+    monkeypatch.setattr(study, "run_cell_lockstep", fake_cell)
+    done = {c: "x" for c in study.CURVE_COLUMNS} | {"variant": "bc", "env": "CartPole-v1", "pool": "CartPole-v1-sampled",
+                                                     "n_trajectories": 1, "seed": 1}
+    append_rows(csv_path, [done], study.CURVE_COLUMNS)
+    args = (["bc", "mbil"], "CartPole-v1", ["CartPole-v1-sampled"], [1, 3], [0, 1, 2], 3, str(csv_path))
+    study.run(*args, lockstep=True)
+    assert ran == [("bc", 1, [0, 2]), ("mbil", 1, [0, 1, 2]), ("bc", 3, [0, 1, 2]), ("mbil", 3, [0, 1, 2])]
+    ran.clear()
+    study.run(*args, lockstep=True)  # everything has its row now
+    assert ran == []
