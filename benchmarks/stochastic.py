@@ -318,14 +318,17 @@ def best_variants(rows: list[dict], env_id: str, pool: str, n_trajectories: int)
 
 def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list[int], seeds: list[int],
         n_episodes: int, csv_path: str, tuned_from: str | None = None, tuning_pool: str | None = None,
-        tuned_algos: list[str] | None = None, lockstep: bool = False, curve: Curve | None = None) -> None:
+        tuned_algos: list[str] | None = None, lockstep: bool = False, curve: Curve | None = None,
+        lockstep_models: int | None = None) -> None:
     """Every (variant, pool, N, seed) whose row is not yet in ``csv_path``, seed-major; one row appended per run.
     ``curve``: each run also records its learning curve (Figure 4; the rows' ``curve`` column, :data:`CURVE_COLUMNS`).
 
     ``tuned_from``: a tuning CSV; each algorithm's best variant there for (env, pool, N) runs too (the pool's own
     tuning, or ``tuning_pool``'s when given); ``tuned_algos``: only these algorithms' best variants. ``lockstep``:
     the pending seeds of each (variant, pool, N) train together (:func:`run_cell_lockstep`), cell after cell; the
-    rows are the same.
+    rows are the same. ``lockstep_models``: at most this many models in one lockstep group (seeds x ensemble
+    members, at least one seed), so that a long cell (an ensemble's) appends its rows group by group and a stopped
+    run loses one group at most.
     """
     from benchmarks.harness.results import read_result_rows
 
@@ -339,6 +342,8 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         if "curve" not in header:
             raise ValueError(f"csv: expected a file with a 'curve' column to record learning curves in, found "
                              f"{csv_path} with columns {header}")
+    if lockstep_models is not None and lockstep_models < 1:
+        raise ValueError(f"lockstep_models: expected a positive number of models or None, found {lockstep_models}")
     tuning = read_result_rows(tuned_from) if tuned_from else []
     done = finished_keys(csv_path, KEY)
     commit = git_commit()
@@ -361,8 +366,14 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         for pool in pools:
             for n in n_trajectories:
                 for _, _, name, todo in pending_cells(csv_path, env_id, [pool], [n], names(pool, n), seeds):
-                    for row in run_cell_lockstep(name, table[name], env_id, pool, n, todo, n_episodes, commit, curve):
-                        report(row)
+                    size = len(todo)
+                    if lockstep_models is not None:
+                        size = max(1, lockstep_models // table[name].ensemble)
+                    for start in range(0, len(todo), size):
+                        group = todo[start:start + size]
+                        for row in run_cell_lockstep(name, table[name], env_id, pool, n, group, n_episodes, commit,
+                                                     curve):
+                            report(row)
         return
     for seed in seeds:
         for pool in pools:
@@ -392,12 +403,15 @@ def main(argv=None) -> None:
     parser.add_argument("--lockstep", action="store_true",
                         help="train the pending seeds of each (variant, pool, N) together (sb3_mbil.learn_lockstep; "
                              "the same rows, cell after cell)")
+    parser.add_argument("--lockstep-models", type=positive_int, default=None, metavar="M",
+                        help="with --lockstep: at most M models (seeds x ensemble members) train together; a cell's "
+                             "rows are appended group by group")
     args = parser.parse_args(argv)
     expand = {"all": sorted(variants_for(args.env)), "baselines": sorted(baseline_variants(args.env))}
     variants = [name for v in args.variants for name in expand.get(v, [v])]
     run(variants, args.env, args.pools, args.n_trajectories, args.seeds, args.episodes, args.csv, args.tuned_from,
         args.tuning_pool, args.tuned_algos, args.lockstep,
-        Curve(args.curve_every, args.curve_episodes) if args.curve_every else None)
+        Curve(args.curve_every, args.curve_episodes) if args.curve_every else None, args.lockstep_models)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Stochastic demonstrators on one env (rows in results/stochastic/{tuning_,crossover_,}ENV.csv; rerun to resume:
-# finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster).
+# finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster), at most 10
+# models together (an ensemble's cell appends its rows every two seeds).
 #   bash benchmarks/runs/stochastic.sh ENV tuning|grid|baselines|curves|crossover|crossover-tuning [N ...]
 # N defaults to 1 3 (tuning, grid, baselines; LunarLander-v3's crossover) or 1 (the MuJoCo crossover).
 # On the MuJoCo envs Figure 4 is the grid's one-trajectory runs: grid and baselines record their learning curve at
@@ -15,13 +16,14 @@ case "$env" in
   *) levels="0 0.05 0.1 0.2"; crossover_n="1 3"; mujoco=0;;
 esac
 curve="--curve-every 500 --curve-episodes 10"
+lockstep="--lockstep --lockstep-models 10"
 # the grid's runs of one N, with their learning curve where they are Figure 4's (MuJoCo, N = 1)
 grid_n() {
   local n=$1; shift
   local flags=""
   [ "$mujoco" = 1 ] && [ "$n" = 1 ] && flags=$curve
   python -m benchmarks.stochastic --env $env --pools $env-sampled "$@" --n-trajectories $n --seeds 0-9 \
-    --episodes 300 --csv results/stochastic/$env.csv --lockstep $flags
+    --episodes 300 --csv results/stochastic/$env.csv $lockstep $flags
 }
 tuned="--tuned-from results/stochastic/tuning_$env.csv"
 noise_pools=""
@@ -30,7 +32,7 @@ bc_variants=$(python -c "from benchmarks.stochastic import variants_for; print('
 case "$stage" in
   # 1. every variant of BC, MBIL and MBIL-C on the sampled pool, tuning seeds 100-102 (the one budget)
   tuning) python -m benchmarks.stochastic --env $env --pools $env-sampled --variants all --n-trajectories ${@:-1 3} \
-            --seeds 100-102 --episodes 100 --csv results/stochastic/tuning_$env.csv --lockstep;;
+            --seeds 100-102 --episodes 100 --csv results/stochastic/tuning_$env.csv $lockstep;;
   # 2. the paper's Figure 3 on the sampled pool, seeds 0-9, 300 episodes: BC, MBIL, MBIL-C and their tuned variants
   grid) for n in ${@:-1 3}; do grid_n $n --variants bc mbil mbil_c $tuned; done;;
   # 2b. the same grid for every other algorithm that supports the action space, at its zoo entry (seed by seed
@@ -45,16 +47,16 @@ case "$stage" in
           else
             python -m benchmarks.stochastic --env $env --pools $env-sampled --variants bc mbil mbil_c baselines \
               $tuned --n-trajectories ${@:-1} --seeds 0-4 --episodes 100 $curve \
-              --csv results/stochastic/curves_$env.csv --lockstep
+              --csv results/stochastic/curves_$env.csv $lockstep
           fi;;
   # 3. the noise crossover, seeds 0-4, 100 episodes: BC, MBIL, MBIL-C at their defaults, and BC* as chosen on the
   #    sampled pool's tuning for the same N (--tuning-pool; BC's own tuning on each noise pool: crossover-tuning)
   crossover) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants bc mbil mbil_c \
                $tuned --tuning-pool $env-sampled --tuned-algos bc \
                --n-trajectories ${@:-$crossover_n} --seeds 0-4 --episodes 100 \
-               --csv results/stochastic/crossover_$env.csv --lockstep;;
+               --csv results/stochastic/crossover_$env.csv $lockstep;;
   crossover-tuning) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants $bc_variants \
                --n-trajectories ${@:-$crossover_n} --seeds 100-102 --episodes 100 \
-               --csv results/stochastic/tuning_$env.csv --lockstep;;
+               --csv results/stochastic/tuning_$env.csv $lockstep;;
   *) echo "stage: expected tuning, grid, baselines, curves, crossover or crossover-tuning, found $stage" >&2; exit 2;;
 esac

@@ -1,5 +1,7 @@
 """The stochastic-demonstrator study's choice of each algorithm's tuned variant (BC* and the others)."""
 
+import pytest
+
 from benchmarks.stochastic import best_variants
 
 
@@ -144,3 +146,25 @@ def test_a_lockstep_run_resumes_with_the_seeds_that_have_no_row(tmp_path, monkey
     ran.clear()
     study.run(*args, lockstep=True)  # everything has its row now
     assert ran == []
+
+
+def test_a_lockstep_cell_trains_in_groups_of_at_most_lockstep_models_models(tmp_path, monkeypatch):
+    import benchmarks.stochastic as study
+
+    ran = []
+
+    def fake_cell(name, variant, env_id, pool, n, seeds, n_episodes, commit, curve):
+        ran.append((name, list(seeds)))
+        return iter(())
+
+    monkeypatch.setattr(study, "run_cell_lockstep", fake_cell)
+    args = (["bc", "bc_ens5"], "CartPole-v1", ["CartPole-v1-sampled"], [1], [0, 1, 2, 3, 4], 3,
+            str(tmp_path / "CartPole-v1.csv"))
+    study.run(*args, lockstep=True, lockstep_models=4)
+    # four single models a group; an ensemble of five is more than four models: one seed a group
+    assert ran == [("bc", [0, 1, 2, 3]), ("bc", [4]), *[("bc_ens5", [s]) for s in range(5)]]
+    ran.clear()
+    study.run(*args, lockstep=True, lockstep_models=10)
+    assert ran == [("bc", [0, 1, 2, 3, 4]), ("bc_ens5", [0, 1]), ("bc_ens5", [2, 3]), ("bc_ens5", [4])]
+    with pytest.raises(ValueError, match="lockstep_models"):
+        study.run(*args, lockstep=True, lockstep_models=0)
