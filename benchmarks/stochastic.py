@@ -366,9 +366,7 @@ def run(variants: list[str], env_id: str, pools: list[str], n_trajectories: list
         for pool in pools:
             for n in n_trajectories:
                 for _, _, name, todo in pending_cells(csv_path, env_id, [pool], [n], names(pool, n), seeds):
-                    size = len(todo)
-                    if lockstep_models is not None:
-                        size = max(1, lockstep_models // table[name].ensemble)
+                    size = len(todo) if lockstep_models is None else max(1, lockstep_models // table[name].ensemble)
                     for start in range(0, len(todo), size):
                         group = todo[start:start + size]
                         for row in run_cell_lockstep(name, table[name], env_id, pool, n, group, n_episodes, commit,
