@@ -114,13 +114,13 @@ def bc_star(chosen, env: str, pool: str, n: int) -> str:
 
 def crossover_table(rows, chosen_by_pool) -> str:
     """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds, the
-    number of seeds in brackets)."""
+    number of seeds in brackets), and MBIL's and MBIL-C's paired differences against BC* and against BC."""
     cells = _by_cell(rows)
     lines = []
     for env, n in sorted({(e, n) for e, _, n in cells}):
         pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
-        lines += [f"**{env}, N = {n}**", "", "| noise | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += [f"**{env}, N = {n}**", "", "| noise | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* | MBIL minus BC "
+                  "| MBIL-C minus BC |", "|---|---|---|---|---|---|---|---|---|"]
         for pool in pools:
             variants = cells[(env, pool, n)]
             star = bc_star(chosen_by_pool, env, pool, n)
@@ -130,12 +130,13 @@ def crossover_table(rows, chosen_by_pool) -> str:
                 return "" if len(v) == 0 else \
                     f"{v.mean():.1f} +- {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.1f} ({len(v)})"
 
-            def diff(name):
-                common = sorted(set(variants.get(name, {})) & set(variants.get(star, {})))
-                return "" if not common else paired_verdict(np.array([variants[name][s] - variants[star][s] for s in common]))
+            def diff(name, ref):
+                common = sorted(set(variants.get(name, {})) & set(variants.get(ref, {})))
+                return "" if not common else paired_verdict(np.array([variants[name][s] - variants[ref][s] for s in common]))
 
             lines.append(f"| {noise_level(pool):g} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
-                         f"{cell('mbil_c')} | {diff('mbil')} | {diff('mbil_c')} |")
+                         f"{cell('mbil_c')} | {diff('mbil', star)} | {diff('mbil_c', star)} | {diff('mbil', 'bc')} | "
+                         f"{diff('mbil_c', 'bc')} |")
         lines.append("")
     return "\n".join(lines)
 

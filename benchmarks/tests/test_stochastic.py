@@ -168,3 +168,18 @@ def test_a_lockstep_cell_trains_in_groups_of_at_most_lockstep_models_models(tmp_
     assert ran == [("bc", [0, 1, 2, 3, 4]), ("bc_ens5", [0, 1]), ("bc_ens5", [2, 3]), ("bc_ens5", [4])]
     with pytest.raises(ValueError, match="lockstep_models"):
         study.run(*args, lockstep=True, lockstep_models=0)
+
+
+def test_the_crossover_table_pairs_mbil_against_bc_star_and_against_bc():
+    from benchmarks.stochastic_report import crossover_table
+
+    pool = "benchmarks/pools/Hopper-v4-noise0.1.npz"
+    offsets = {"bc": 0.0, "bc_ens5": 10.0, "mbil": 30.0, "mbil_c": 10.0}
+    rows = [{"env": "Hopper-v4", "pool": pool, "n_trajectories": "1", "variant": v, "seed": str(s),
+             "mean_return": str(100.0 * s + offsets[v] + 0.5 * (s % 2))} for v in offsets for s in range(5)]
+    chosen = {("Hopper-v4", "Hopper-v4-sampled", 1): {"bc": "bc_ens5"}}
+    line = next(x for x in crossover_table(rows, chosen).splitlines() if x.startswith("| 0.1 |"))
+    *_, mbil_star, mbil_c_star, mbil_bc, mbil_c_bc, _ = line.split("|")
+    # MBIL is 20 above BC* and 30 above BC on every seed, MBIL-C level with BC* and 10 above BC
+    assert mbil_star.strip().startswith("+20.0") and mbil_bc.strip().startswith("+30.0")
+    assert mbil_c_star.strip().startswith("+0.0") and mbil_c_bc.strip().startswith("+10.0")
