@@ -19,3 +19,20 @@ def test_next_state_only_models_ignore_the_predecessor():
     model_c.fit_models()
     p = model_c.balance_model
     assert th.equal(p.next_action_distribution(s, a, s_next)[0], p.next_action_distribution(*other[:3])[0])
+
+
+def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(tmp_path):
+    from benchmarks.balance_ablation import COLUMNS, summary
+    from benchmarks.harness.results import append_rows
+
+    csv_path = tmp_path / "ablation.csv"
+    returns = {"mbil_nll": [900.0, 700.0, 800.0], "mbil_nll_alpha0": [500.0, 400.0, 450.0]}
+    append_rows(str(csv_path), [{"variant": name, "env": "Walker2d-v4", "pool": "noise0.1", "n_trajectories": 1,
+                                 "seed": 100 + i, "mean_return": r, "std_return": 0.0, "n_episodes": 100,
+                                 "settings": "{}", "commit": "x"}
+                                for name, rs in returns.items() for i, r in enumerate(rs)], COLUMNS)
+    lines = summary(str(csv_path)).splitlines()
+    nll = [line for line in lines if "| MBIL, NLL |" in line]
+    assert len(nll) == 1 and "800.0 (3)" in nll[0] and "450.0 (3)" in nll[0]
+    assert "+350.0" in nll[0] and "above" in nll[0]  # the paired difference against alpha = 0
+    assert not any("| MBIL-C |" in line or "| MBIL |" in line for line in lines)
