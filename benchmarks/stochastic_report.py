@@ -11,6 +11,7 @@ same draw of trajectories) and gives the mean difference with its 95% Student-t 
 from __future__ import annotations
 
 import argparse
+import functools
 import glob
 import os
 import re
@@ -32,6 +33,18 @@ def noise_level(pool: str) -> float:
     if match is None:
         raise ValueError(f"pool: expected a noise-family pool '<env>-noise<level>', found {pool!r}")
     return float(match.group(1))
+@functools.lru_cache(maxsize=None)
+def demonstrator_return(pool: str) -> float:
+    """The noisy demonstrator's own mean return: its pool's mean episode return (nan where the pool cannot be read,
+    e.g. a page built away from the repository)."""
+    from sb3_mbil import load_demonstrations
+
+    try:
+        return float(np.mean(load_demonstrations(pool).episode_returns))
+    except (OSError, ValueError):
+        return float("nan")
+
+
 LABEL = {"bc": "BC", "mbil": "MBIL", "mbil_c": "MBIL-C", "edm": "EDM", "avril": "AVRIL", "rcal": "RCAL",
          "dsfn": "DSFN", "iq_learn": "IQ-Learn", "valuedice": "ValueDICE", "odice": "ODICE"}
 
@@ -113,14 +126,15 @@ def bc_star(chosen, env: str, pool: str, n: int) -> str:
 
 
 def crossover_table(rows, chosen_by_pool) -> str:
-    """Per (env, N): return against the noise level for BC, BC*, MBIL, MBIL-C (mean +- standard error over seeds, the
-    number of seeds in brackets), and MBIL's and MBIL-C's paired differences against BC* and against BC."""
+    """Per (env, N): return against the noise level for the demonstrator itself (its pool's mean return), BC, BC*,
+    MBIL, MBIL-C (mean +- standard error over seeds, the number of seeds in brackets), and MBIL's and MBIL-C's paired
+    differences against BC* and against BC."""
     cells = _by_cell(rows)
     lines = []
     for env, n in sorted({(e, n) for e, _, n in cells}):
         pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
-        lines += [f"**{env}, N = {n}**", "", "| noise | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* | MBIL minus BC "
-                  "| MBIL-C minus BC |", "|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"**{env}, N = {n}**", "", "| noise | demonstrator | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* "
+                  "| MBIL minus BC | MBIL-C minus BC |", "|---|---|---|---|---|---|---|---|---|---|"]
         for pool in pools:
             variants = cells[(env, pool, n)]
             star = bc_star(chosen_by_pool, env, pool, n)
@@ -134,7 +148,8 @@ def crossover_table(rows, chosen_by_pool) -> str:
                 common = sorted(set(variants.get(name, {})) & set(variants.get(ref, {})))
                 return "" if not common else paired_verdict(np.array([variants[name][s] - variants[ref][s] for s in common]))
 
-            lines.append(f"| {noise_level(pool):g} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
+            shown = demonstrator_return(pool)
+            lines.append(f"| {noise_level(pool):g} | {'' if np.isnan(shown) else f'{shown:.1f}'} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
                          f"{cell('mbil_c')} | {diff('mbil', star)} | {diff('mbil_c', star)} | {diff('mbil', 'bc')} | "
                          f"{diff('mbil_c', 'bc')} |")
         lines.append("")
@@ -161,6 +176,8 @@ def plot_crossover(rows, chosen_by_pool, path: str) -> None:
                             ("MBIL", lambda p: "mbil"), ("MBIL-C", lambda p: "mbil_c")):
             means = [np.mean(list(cells[(env, p, n)].get(pick(p), {np.nan: np.nan}).values())) for p in pools]
             ax.plot(levels, means, marker="o", label=label)
+        ax.plot(levels, [demonstrator_return(p) for p in pools], color="grey", linestyle="--", marker=".",
+                label="demonstrator")
         ax.set_title(f"{env}, N = {n}")
         ax.set_xlabel("demonstrator noise (epsilon or sigma / range)")
         ax.set_ylabel("return")

@@ -183,3 +183,17 @@ def test_the_crossover_table_pairs_mbil_against_bc_star_and_against_bc():
     # MBIL is 20 above BC* and 30 above BC on every seed, MBIL-C level with BC* and 10 above BC
     assert mbil_star.strip().startswith("+20.0") and mbil_bc.strip().startswith("+30.0")
     assert mbil_c_star.strip().startswith("+0.0") and mbil_c_bc.strip().startswith("+10.0")
+
+
+def test_the_crossover_table_shows_the_demonstrators_own_return(tmp_path):
+    from benchmarks.stochastic_report import crossover_table
+    from sb3_mbil import load_demonstrations
+
+    pool = "benchmarks/pools/Hopper-v4-noise0.1.npz"
+    missing = str(tmp_path / "Hopper-v4-noise0.2.npz")  # a pool the page cannot read: its cell stays empty
+    rows = [{"env": "Hopper-v4", "pool": p, "n_trajectories": "1", "variant": "bc", "seed": str(s),
+             "mean_return": "1.0"} for p in (pool, missing) for s in range(2)]
+    lines = crossover_table(rows, {}).splitlines()
+    expected = float(load_demonstrations(pool).episode_returns.mean())
+    assert next(x for x in lines if x.startswith("| 0.1 |")).split("|")[2].strip() == f"{expected:.1f}"
+    assert next(x for x in lines if x.startswith("| 0.2 |")).split("|")[2].strip() == ""
