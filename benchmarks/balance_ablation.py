@@ -128,7 +128,11 @@ def summary(csv_path: str) -> str:
             means = [f"{np.mean(list(v[x].values())):.1f} ({len(v[x])})" if v.get(x) else "" for x in names]
             lines.append(f"| {pool} | {n} | {label} | {' | '.join(means)} | "
                          f"{diff(v.get(names[0], {}), v.get(names[1], {}))} | {diff(v.get(names[0], {}), v.get(names[2], {}))} |")
-    return "\n".join(lines)
+    # does MBIL's balance term on MSE cloning do more than the NLL alone (BC* on Walker2d-v4)?
+    against_nll = [f"- {pool}, N = {n}: MBIL (MSE, balance term) minus the NLL without it: "
+                   f"{diff(v['mbil'], v['mbil_nll_alpha0'])}"
+                   for (pool, n), v in sorted(cells.items()) if v.get("mbil") and v.get("mbil_nll_alpha0")]
+    return "\n".join(lines + ([""] + against_nll if against_nll else []))
 
 
 def main(argv=None) -> None:

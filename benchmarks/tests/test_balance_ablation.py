@@ -1,5 +1,6 @@
 """The balance ablation's P(a' | s') variants: P no longer sees the predecessor (s, a), the paper's P does."""
 
+import pytest
 import torch as th
 
 from benchmarks.balance_ablation import MBILCNextStateOnly, MBILNextStateOnly
@@ -21,12 +22,15 @@ def test_next_state_only_models_ignore_the_predecessor():
     assert th.equal(p.next_action_distribution(s, a, s_next)[0], p.next_action_distribution(*other[:3])[0])
 
 
-def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(tmp_path):
+@pytest.mark.parametrize("with_mse", [False, True])
+def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(tmp_path, with_mse):
     from benchmarks.balance_ablation import COLUMNS, summary
     from benchmarks.harness.results import append_rows
 
     csv_path = tmp_path / "ablation.csv"
     returns = {"mbil_nll": [900.0, 700.0, 800.0], "mbil_nll_alpha0": [500.0, 400.0, 450.0]}
+    if with_mse:
+        returns["mbil"] = [510.0, 410.0, 460.0]
     append_rows(str(csv_path), [{"variant": name, "env": "Walker2d-v4", "pool": "noise0.1", "n_trajectories": 1,
                                  "seed": 100 + i, "mean_return": r, "std_return": 0.0, "n_episodes": 100,
                                  "settings": "{}", "commit": "x"}
@@ -35,4 +39,8 @@ def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(t
     nll = [line for line in lines if "| MBIL, NLL |" in line]
     assert len(nll) == 1 and "800.0 (3)" in nll[0] and "450.0 (3)" in nll[0]
     assert "+350.0" in nll[0] and "above" in nll[0]  # the paired difference against alpha = 0
-    assert not any("| MBIL-C |" in line or "| MBIL |" in line for line in lines)
+    assert not any("| MBIL-C |" in line for line in lines)
+    against_nll = [line for line in lines if "minus the NLL without it" in line]
+    assert [("| MBIL |" in line) for line in lines].count(True) == with_mse and len(against_nll) == with_mse
+    if with_mse:  # MBIL 10 above the NLL on every seed
+        assert "+10.0" in against_nll[0] and "above" in against_nll[0]
