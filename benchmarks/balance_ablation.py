@@ -15,7 +15,8 @@ lockstep (each its separate run), 100 evaluation episodes.
         benchmarks/pools/LunarLander-v3-noise0.2.npz --csv results/balance_ablation.csv
     python -m benchmarks.balance_ablation --summary results/balance_ablation.csv
 
-The NLL pair (``--variants mbil_nll mbil_nll_alpha0``) asks the same of MBIL on top of BC's Gaussian NLL:
+The NLL pair (``--variants mbil_nll mbil_nll_alpha0``) asks the same of MBIL on top of BC's Gaussian NLL, and
+``mbil_alpha3`` weighs the balance term three times as much:
 
     python -m benchmarks.balance_ablation --env Walker2d-v4 --n-trajectories 1 --seeds 100-104 \\
         --pools benchmarks/pools/Walker2d-v4-noise0.1.npz --csv results/balance_ablation.csv \\
@@ -88,6 +89,8 @@ VARIANTS = {
     # pushing the balance term where it pays (Walker2d-v4, sigma 0.1): a heavier weight on it
     "mbil_alpha3": (MBIL, "mbil", {"alpha": 3.0}),
 }
+#: what runs without --variants: the paper's P, P(a' | s') and alpha = 0, for MBIL and MBIL-C
+DEFAULT_VARIANTS = ["mbil", "mbil_next_state_only", "mbil_alpha0", "mbil_c", "mbil_c_next_state_only", "mbil_c_alpha0"]
 COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "settings",
            "commit"]
 
@@ -139,7 +142,7 @@ def summary(csv_path: str) -> str:
 
 
 def main(argv=None) -> None:
-    a = probe_parser(__doc__, pools=["LunarLander-v3-sampled"], n_trajectories=[1], variants=list(VARIANTS)[:6],
+    a = probe_parser(__doc__, pools=["LunarLander-v3-sampled"], n_trajectories=[1], variants=DEFAULT_VARIANTS,
                      choices=list(VARIANTS), csv="results/balance_ablation.csv").parse_args(argv)
     if a.summary:
         print(summary(a.summary))

@@ -33,6 +33,8 @@ def noise_level(pool: str) -> float:
     if match is None:
         raise ValueError(f"pool: expected a noise-family pool '<env>-noise<level>', found {pool!r}")
     return float(match.group(1))
+
+
 @functools.lru_cache(maxsize=None)
 def demonstrator_return(pool: str) -> float:
     """The noisy demonstrator's own mean return: its pool's mean episode return (nan where the pool cannot be read,
