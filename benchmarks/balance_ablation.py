@@ -138,7 +138,11 @@ def summary(csv_path: str) -> str:
                    f"{diff(v[name], v['mbil_nll_alpha0'])}"
                    for (pool, n), v in sorted(cells.items()) for name, label in (("mbil", ""), ("mbil_alpha3", ", alpha 3"))
                    if v.get(name) and v.get("mbil_nll_alpha0")]
-    return "\n".join(lines + ([""] + against_nll if against_nll else []))
+    # every variant's mean and per-seed returns, the rows the tables above pair
+    per_variant = [f"- {pool}, N = {n}, {name}: {np.mean(list(by_seed.values())):.1f} "
+                   f"({', '.join(f'{by_seed[s]:.1f}' for s in sorted(by_seed))})"
+                   for (pool, n), v in sorted(cells.items()) for name, by_seed in sorted(v.items())]
+    return "\n".join(lines + ([""] + against_nll if against_nll else []) + [""] + per_variant)
 
 
 def main(argv=None) -> None:

@@ -44,3 +44,4 @@ def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(t
     assert [("| MBIL |" in line) for line in lines].count(True) == with_mse and len(against_nll) == with_mse
     if with_mse:  # MBIL 10 above the NLL on every seed
         assert "+10.0" in against_nll[0] and "above" in against_nll[0]
+    assert "- noise0.1, N = 1, mbil_nll: 800.0 (900.0, 700.0, 800.0)" in lines  # each variant's seeds, in order
