@@ -130,13 +130,15 @@ def bc_star(chosen, env: str, pool: str, n: int) -> str:
 def crossover_table(rows, chosen_by_pool) -> str:
     """Per (env, N): return against the noise level for the demonstrator itself (its pool's mean return), BC, BC*,
     MBIL, MBIL-C (mean +- standard error over seeds, the number of seeds in brackets), and MBIL's and MBIL-C's paired
-    differences against BC* and against BC."""
+    differences against BC* and against BC. Any other variant run on a noise pool (a setting pushed after item 5's
+    ablation, e.g. ``mbil_alpha3``) follows the table as one line, paired against the same BC* and BC."""
     cells = _by_cell(rows)
     lines = []
     for env, n in sorted({(e, n) for e, _, n in cells}):
         pools = sorted({p for e, p, m in cells if (e, m) == (env, n)}, key=noise_level)
         lines += [f"**{env}, N = {n}**", "", "| noise | demonstrator | BC | BC* | MBIL | MBIL-C | MBIL minus BC* | MBIL-C minus BC* "
                   "| MBIL minus BC | MBIL-C minus BC |", "|---|---|---|---|---|---|---|---|---|---|"]
+        others = []
         for pool in pools:
             variants = cells[(env, pool, n)]
             star = bc_star(chosen_by_pool, env, pool, n)
@@ -154,6 +156,9 @@ def crossover_table(rows, chosen_by_pool) -> str:
             lines.append(f"| {noise_level(pool):g} | {'' if np.isnan(shown) else f'{shown:.1f}'} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
                          f"{cell('mbil_c')} | {diff('mbil', star)} | {diff('mbil_c', star)} | {diff('mbil', 'bc')} | "
                          f"{diff('mbil_c', 'bc')} |")
+            others += [f"- `{name}` at noise {noise_level(pool):g}: {cell(name)}; minus BC* ({star}) {diff(name, star)}; "
+                       f"minus BC {diff(name, 'bc')}" for name in sorted(set(variants) - {"bc", star, "mbil", "mbil_c"})]
+        lines += ["", "Other settings run on these pools:", "", *others] if others else []
         lines.append("")
     return "\n".join(lines)
 
@@ -294,8 +299,9 @@ def coverage_table(folder: str = "results/stochastic") -> str:
 
         def crossover(n):
             star = chosen.get((env, pool, n), {}).get("bc")
-            planned = 4 * 5 * len({"bc", "mbil", "mbil_c", star}) if star else "?"
-            return cell(sum(count(cross, env, p, n) for p in levels), planned)
+            names = {"bc", "mbil", "mbil_c", star}
+            planned = 4 * 5 * len(names) if star else "?"
+            return cell(sum(count(cross, env, p, n, names if star else None) for p in levels), planned)
 
         lines.append(" | ".join([
             f"| {env}", "shipped",

@@ -185,6 +185,22 @@ def test_the_crossover_table_pairs_mbil_against_bc_star_and_against_bc():
     assert mbil_c_star.strip().startswith("+0.0") and mbil_c_bc.strip().startswith("+10.0")
 
 
+def test_the_crossover_table_lists_a_setting_outside_its_columns_against_bc_star_and_bc():
+    from benchmarks.stochastic_report import crossover_table
+
+    pool = "benchmarks/pools/Walker2d-v4-noise0.1.npz"
+    offsets = {"bc": 0.0, "bc_nll": 10.0, "mbil": 30.0, "mbil_c": 10.0, "mbil_alpha3": 50.0}
+    rows = [{"env": "Walker2d-v4", "pool": pool, "n_trajectories": "1", "variant": v, "seed": str(s),
+             "mean_return": str(100.0 * s + offsets[v])} for v in offsets for s in range(5)]
+    chosen = {("Walker2d-v4", "Walker2d-v4-sampled", 1): {"bc": "bc_nll"}}
+    lines = crossover_table(rows, chosen).splitlines()
+    (other,) = [x for x in lines if x.startswith("- ")]
+    assert other.startswith("- `mbil_alpha3` at noise 0.1: 250.0")
+    assert "minus BC* (bc_nll) +40.0" in other and "minus BC +50.0" in other
+    rows = [r for r in rows if r["variant"] != "mbil_alpha3"]
+    assert not any(x.startswith("- ") for x in crossover_table(rows, chosen).splitlines())
+
+
 def test_the_crossover_table_shows_the_demonstrators_own_return(tmp_path):
     from benchmarks.stochastic_report import crossover_table
     from sb3_mbil import load_demonstrations
