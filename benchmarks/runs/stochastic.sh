@@ -3,13 +3,14 @@
 # finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster), at most 10
 # models together (an ensemble's cell appends its rows every two seeds).
 #   bash benchmarks/runs/stochastic.sh ENV tuning|grid|baselines|curves|crossover|crossover-tuning [N ...]
+#   bash benchmarks/runs/stochastic.sh ENV crossover-extra LEVEL VARIANT...
 # N defaults to 1 3 (tuning, grid, baselines; LunarLander-v3's crossover) or 1 (the MuJoCo crossover).
 # On the MuJoCo envs Figure 4 is the grid's one-trajectory runs: grid and baselines record their learning curve at
 # N = 1 (the same runs, seeds 0-9, 300 episodes), and `curves` runs both at N = 1.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 env=${1:?ENV}
-stage=${2:?tuning, grid, baselines, curves, crossover or crossover-tuning}
+stage=${2:?tuning, grid, baselines, curves, crossover, crossover-extra or crossover-tuning}
 shift 2
 case "$env" in
   Hopper-v4|Walker2d-v4|HalfCheetah-v4|Ant-v4) levels="0 0.1 0.2 0.4"; crossover_n=1; mujoco=1;;
@@ -55,8 +56,14 @@ case "$stage" in
                $tuned --tuning-pool $env-sampled --tuned-algos bc \
                --n-trajectories ${@:-$crossover_n} --seeds 0-4 --episodes 100 \
                --csv results/stochastic/crossover_$env.csv $lockstep;;
+  # 3b. a setting pushed after item 5's ablation (docs/stochastic.md), on one noise level, the crossover's seeds:
+  #     crossover-extra LEVEL VARIANT... (the page lists it under the crossover table, paired against BC* and BC)
+  crossover-extra) level=${1:?LEVEL}; shift
+               python -m benchmarks.stochastic --env $env --pools benchmarks/pools/$env-noise$level.npz \
+               --variants "${@:?VARIANT...}" --n-trajectories $crossover_n --seeds 0-4 --episodes 100 \
+               --csv results/stochastic/crossover_$env.csv $lockstep;;
   crossover-tuning) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants $bc_variants \
                --n-trajectories ${@:-$crossover_n} --seeds 100-102 --episodes 100 \
                --csv results/stochastic/tuning_$env.csv $lockstep;;
-  *) echo "stage: expected tuning, grid, baselines, curves, crossover or crossover-tuning, found $stage" >&2; exit 2;;
+  *) echo "stage: expected tuning, grid, baselines, curves, crossover, crossover-extra or crossover-tuning, found $stage" >&2; exit 2;;
 esac
