@@ -1,10 +1,12 @@
-"""Training never thrashes the cores: learn runs with one intra-op thread and restores the caller's setting."""
+"""Training never thrashes the cores: learn runs with one intra-op thread, flushes subnormal floats, and restores the
+caller's settings."""
 
 import pytest
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
-from sb3_mbil import BC, MBIL, load_demonstrations
+from sb3_mbil import BC, MBIL, learn_lockstep, load_demonstrations
+from sb3_mbil.common.threads import flushing_subnormals
 
 
 class ThreadsSeen(BaseCallback):
@@ -63,3 +65,44 @@ def test_the_thread_count_can_be_set_and_is_restored_after_an_error(caller_threa
     with pytest.raises(RuntimeError, match="boom"):
         model.learn(2, callback=Boom())
     assert th.get_num_threads() == caller_threads
+
+
+class FlushSeen(BaseCallback):
+    def __init__(self):
+        super().__init__()
+        self.seen = set()
+
+    def _on_step(self):
+        self.seen.add(flushing_subnormals())
+        return True
+
+
+def test_learn_flushes_subnormals_and_restores_the_callers_mode(monkeypatch):
+    """Weight decay drives unused weights through the subnormal range, where the CPU is many times slower: training
+    flushes them (benchmarks/probe_subnormals.py) unless SB3_MBIL_FLUSH_SUBNORMALS=0, and gives the mode back."""
+    monkeypatch.delenv("SB3_MBIL_FLUSH_SUBNORMALS", raising=False)
+    assert not flushing_subnormals()
+    demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    models = [BC("MlpPolicy", "CartPole-v1", expert_data=demo, seed=s) for s in (0, 1)]
+    seen = [FlushSeen(), FlushSeen()]
+    learn_lockstep(models, 3, callbacks=seen)
+    assert seen[0].seen == seen[1].seen == {True}
+    assert not flushing_subnormals()
+    seen = FlushSeen()
+    models[0].learn(3, callback=seen)
+    assert seen.seen == {True}
+    assert not flushing_subnormals()
+    monkeypatch.setenv("SB3_MBIL_FLUSH_SUBNORMALS", "0")
+    seen = FlushSeen()
+    models[0].learn(3, callback=seen)
+    assert seen.seen == {False}
+    monkeypatch.setenv("SB3_MBIL_FLUSH_SUBNORMALS", "yes")
+    with pytest.raises(ValueError, match="SB3_MBIL_FLUSH_SUBNORMALS: expected 0 or 1, found 'yes'"):
+        models[0].learn(3)
+    monkeypatch.setenv("SB3_MBIL_FLUSH_SUBNORMALS", "1")
+    th.set_flush_denormal(True)  # a caller that flushes already keeps flushing
+    try:
+        models[0].learn(3)
+        assert flushing_subnormals()
+    finally:
+        th.set_flush_denormal(False)

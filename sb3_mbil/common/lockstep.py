@@ -32,7 +32,7 @@ from stable_baselines3.common.type_aliases import MaybeCallback
 from torch.func import vmap
 
 from sb3_mbil.common.offline import FINITE_CHECK_EVERY, OfflineAlgorithm, encode_numpy_state
-from sb3_mbil.common.threads import torch_threads, training_threads
+from sb3_mbil.common.threads import training_cpu
 
 #: updates between the checks that every model's minibatch has the form of the first's (and at the first)
 FORM_CHECK_EVERY = 1000
@@ -199,8 +199,7 @@ def learn_lockstep(models: Sequence[OfflineAlgorithm], total_timesteps: int,
         callbacks = [None] * len(models)
     if len(callbacks) != len(models):
         raise ValueError(f"callbacks: expected one per model ({len(models)}), found {len(callbacks)}")
-    threads = getattr(models[0], "torch_threads", None)
-    with torch_threads(training_threads() if threads is None else threads):
+    with training_cpu(models[0]):
         return _learn(models, total_timesteps, list(callbacks), log_interval, tb_log_name, reset_num_timesteps,
                       progress_bar)
 

@@ -37,7 +37,7 @@ from sb3_mbil.common.losses import bc_loss
 from sb3_mbil.common.policies import ImitationPolicy, MlpPolicy
 from sb3_mbil.common.safe_load import (add_description, check_members, check_version, safe_custom_objects,
                                       warn_unknown_entries)
-from sb3_mbil.common.threads import torch_threads, training_threads
+from sb3_mbil.common.threads import training_cpu
 from sb3_mbil.common.type_aliases import PairSamples, Samples, TransitionSamples, TupleSamples, take
 from sb3_mbil.common.validation import (CheckedSchedule, check_int, check_learning_rate, check_policy_kwargs,
                                        check_real, check_seed)
@@ -571,10 +571,10 @@ class OfflineAlgorithm(BaseAlgorithm):
         :param progress_bar: show a progress bar (tqdm and rich)
 
         Training runs with one torch intra-op thread (``model.torch_threads``, default
-        ``SB3_MBIL_TORCH_THREADS`` or 1; :mod:`sb3_mbil.common.threads`) and restores the caller's setting after.
+        ``SB3_MBIL_TORCH_THREADS`` or 1) and subnormal floats flushed to zero (``SB3_MBIL_FLUSH_SUBNORMALS``), and
+        restores the caller's settings after (:mod:`sb3_mbil.common.threads`).
         """
-        threads = getattr(self, "torch_threads", None)
-        with torch_threads(training_threads() if threads is None else threads), self._training_rng():
+        with training_cpu(self), self._training_rng():
             return self._learn(total_timesteps, callback, log_interval, tb_log_name, reset_num_timesteps, progress_bar)
 
     def _learn(self: SelfOffline, total_timesteps: int, callback: MaybeCallback, log_interval: int,
