@@ -313,6 +313,82 @@ def coverage_table(folder: str = "results/stochastic") -> str:
     return "\n".join(lines)
 
 
+#: the issue's little-data settings: the Figure 3 cells with N <= 3 on every env's sampled pool (on the MuJoCo envs
+#: the N = 1 cell is Figure 4 too: the same runs), and the seeds a finished cell has
+GOAL_N = (1, 3)
+GOAL_SEEDS = 10
+FAMILY = ("mbil", "mbil_c")
+
+
+def _verdict(d) -> str:
+    """above / below / level for paired differences (fewer than two: "too few seeds")."""
+    from benchmarks.harness.report import paired_interval
+
+    if len(d) < 2:
+        return "too few seeds"
+    lo, hi = paired_interval(np.asarray(d, dtype=float))
+    return "above" if lo > 0 else ("below" if hi < 0 else "level")
+
+
+def goal_table(grid_rows, chosen, envs=STUDY_ENVS) -> str:
+    """Markdown: the goal's scoreboard. For each little-data setting (env x N in :data:`GOAL_N` on the sampled pool),
+    each family member (MBIL, MBIL*, MBIL-C, MBIL-C*) against BC*, paired over the seeds both have; a setting counts
+    as "above" where a member is above BC* and as "below" where a member is below it (both can hold), and as
+    finished once BC* and every member have :data:`GOAL_SEEDS` seeds. The goal: above in at least half of the
+    settings, below in none."""
+    cells = _by_cell(grid_rows)
+    head = ["| setting | BC* | " + " | ".join(f"{LABEL[a]} | {LABEL[a]}*" for a in FAMILY) + " | setting counts as |",
+            "|---|---|" + "---|---|" * len(FAMILY) + "---|"]
+    lines, above, above_finished, below, finished, planned = [], 0, 0, 0, 0, 0
+    for env in envs:
+        pool = f"{env}-sampled"
+        for n in GOAL_N:
+            planned += 1
+            label = f"{env}, N = {n}" + (" (Figure 4 too)" if env in MUJOCO and n == 1 else "")
+            best = chosen.get((env, pool, n), {})
+            variants = cells.get((env, pool, n), {})
+            if "bc" not in best or not all(a in best for a in FAMILY):
+                lines.append(f"| {label} | tuning not finished |" + " |" * (2 * len(FAMILY) + 1))
+                continue
+            ref = variants.get(best["bc"], {})
+            runs = [variants.get(name, {}) for name in {best["bc"], *FAMILY, *(best[a] for a in FAMILY)}]
+            complete = all(len(vals) >= GOAL_SEEDS for vals in runs)
+
+            def against_bc_star(name: str) -> str:
+                vals = variants.get(name, {})
+                common = sorted(set(vals) & set(ref))
+                return _verdict([vals[s] - ref[s] for s in common]) if common else "not run yet"
+
+            words = []
+            for algo in FAMILY:
+                words.append(against_bc_star(algo))
+                words.append(f"= {LABEL[algo]} (its zoo entry is the best)" if best[algo] == algo
+                             else against_bc_star(best[algo]))
+            is_above = "above" in words
+            is_below = "below" in words
+            above += is_above
+            above_finished += is_above and complete
+            below += is_below
+            finished += complete
+            if is_above or is_below:
+                status = " and ".join(w for w, on in (("above", is_above), ("below", is_below)) if on)
+            else:
+                status = "level" if any(w == "level" for w in words) else "not run yet"
+            status += "" if complete else " (not finished)"
+            lines.append(f"| {label} | {best['bc']} ({len(ref)} seeds) | " + " | ".join(words) + f" | {status} |")
+    if below:
+        verdict = "missed (a setting is below BC*)"
+    elif above * 2 >= planned and finished == planned:
+        verdict = "met"
+    elif (above_finished + planned - finished) * 2 < planned:
+        verdict = "missed (too few settings can still be above BC*)"
+    else:
+        verdict = "not decided yet"
+    summary = (f"Settings: {planned}; finished: {finished}; above BC*: {above}; below BC*: {below}. "
+               f"The goal (above in at least {-(-planned // 2)}, below in none): **{verdict}**.")
+    return "\n".join([summary, "", *head, *lines])
+
+
 def sections(folder: str = "results/stochastic", level: str = "##", figure: str = "stochastic_crossover.png",
              tuning_table_too: bool = True) -> str:
     """The study's tables as Markdown sections at heading ``level`` (the grids, the crossover and its figure at the
@@ -331,6 +407,11 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "curves; crossover: 4 noise levels x BC, BC*, MBIL, MBIL-C x 5 seeds; each N separated by '/'; '?': waits "
             "on the tuning of that N).", "",
             coverage_table(folder), "",
+            f"{level} Stochastic demonstrators: the issue's goal, setting by setting", "",
+            "Each little-data setting (Figure 3 on the sampled pool, N = 1 and 3; on the MuJoCo envs the N = 1 cell is "
+            "Figure 4's runs too), each MBIL-family member against BC*, paired over seeds 0-9 (95% intervals; the "
+            "numbers are in the grids below).", "",
+            goal_table(grid, chosen), "",
             f"{level} Stochastic demonstrators: the grids (seeds 0-9)", "", grid_table(grid, chosen), "",
             f"{level} Stochastic demonstrators: Figure 4, one trajectory", "",
             "The final policy's return of the runs that recorded their learning curve (every 500 updates on 10 "

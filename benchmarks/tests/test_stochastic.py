@@ -213,3 +213,29 @@ def test_the_crossover_table_shows_the_demonstrators_own_return(tmp_path):
     expected = float(load_demonstrations(pool).episode_returns.mean())
     assert next(x for x in lines if x.startswith("| 0.1 |")).split("|")[2].strip() == f"{expected:.1f}"
     assert next(x for x in lines if x.startswith("| 0.2 |")).split("|")[2].strip() == ""
+
+
+def test_the_goal_scoreboard_counts_settings_above_and_below_bc_star():
+    from benchmarks.stochastic_report import goal_table
+
+    env, pool = "CartPole-v1", "CartPole-v1-sampled"
+    chosen = {(env, pool, n): {"bc": "bc_es", "mbil": "mbil_ens5", "mbil_c": "mbil_c"} for n in (1, 3)}
+
+    def rows(n, offsets, seeds=range(10)):
+        return [{"env": env, "pool": pool, "n_trajectories": str(n), "variant": v, "seed": str(s),
+                 "mean_return": str(10.0 * (s % 3) + offsets[v] + (-1) ** s * (v != "bc_es"))}
+                for v in offsets for s in seeds]
+
+    level = {"bc": 0.0, "bc_es": 5.0, "mbil": 5.0, "mbil_ens5": 5.0, "mbil_c": 5.0}
+    above = {**level, "mbil_ens5": 25.0}
+    below = {**level, "mbil_c": -20.0}
+    text = goal_table(rows(1, above) + rows(3, above), chosen, envs=(env,))
+    assert text.startswith("Settings: 2; finished: 2; above BC*: 2; below BC*: 0.") and "**met**" in text
+    assert "= MBIL-C (its zoo entry is the best)" in text
+    text = goal_table(rows(1, above) + rows(3, below), chosen, envs=(env,))
+    assert "above BC*: 1; below BC*: 1." in text and "**missed (a setting is below BC*)**" in text
+    text = goal_table(rows(1, above) + rows(3, level, seeds=range(5)), chosen, envs=(env,))
+    assert "finished: 1; above BC*: 1; below BC*: 0." in text and "**not decided yet**" in text
+    assert "| level (not finished) |" in text
+    text = goal_table(rows(1, level) + rows(3, level), chosen, envs=(env,))
+    assert "**missed (too few settings can still be above BC*)**" in text
