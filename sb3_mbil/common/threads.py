@@ -9,11 +9,12 @@ Change it for every algorithm with the environment variable ``SB3_MBIL_TORCH_THR
 to leave torch's own setting alone), or per model by setting ``model.torch_threads`` before ``learn``.
 
 Subnormal floats (magnitudes below 1.2e-38 in float32) are flushed to zero while training. Weight decay drives the
-weights the loss barely moves, and their Adam moments, towards zero through the subnormal range, where the CPU computes many times slower: MBIL-C with ``weight_decay=1e-3`` on Walker2d-v4
-gathered thousands of subnormal parameters, and 10 000 updates took 2.6x as long as with them flushed
-(``python -m benchmarks.probe_subnormals``, docs/results.md). Flushing changes only values that small.
-Turn it off with ``SB3_MBIL_FLUSH_SUBNORMALS=0`` (``1``, the default: on). It applies to the thread that trains (with
-one intra-op thread, all of training); the caller's mode is restored when ``learn`` returns.
+weights the loss barely moves, and their Adam moments, towards zero through the subnormal range, where the CPU
+computes many times slower: MBIL-C with ``weight_decay=1e-3`` on Walker2d-v4 gathered thousands of subnormal
+parameters, and 10 000 updates took 2.6x as long as with them flushed (``python -m benchmarks.probe_subnormals``,
+docs/results.md). Flushing changes only values that small. Turn it off with ``SB3_MBIL_FLUSH_SUBNORMALS=0`` (``1``,
+the default: on). It applies to the thread that trains (with one intra-op thread, all of training); the caller's
+mode is restored when ``learn`` returns.
 """
 
 from __future__ import annotations
