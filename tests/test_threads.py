@@ -5,7 +5,9 @@ import pytest
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
-from sb3_mbil import BC, MBIL, learn_lockstep, load_demonstrations
+import sb3_mbil.mbil.mbil
+import sb3_mbil.mbil_c.models
+from sb3_mbil import BC, MBIL, MBILC, learn_lockstep, load_demonstrations
 from sb3_mbil.common.threads import flushing_subnormals
 
 
@@ -106,3 +108,27 @@ def test_learn_flushes_subnormals_and_restores_the_callers_mode(monkeypatch):
         assert flushing_subnormals()
     finally:
         th.set_flush_denormal(False)
+
+
+@pytest.mark.parametrize("cls, module, fit, kwargs", [
+    (MBIL, sb3_mbil.mbil.mbil, "fit_flows", dict(flow_max_steps=20, noise_grid=(0.1,), flow_hidden=(16,))),
+    (MBILC, sb3_mbil.mbil_c.models, "fit_models", dict(alpha_model=0.0, model_max_steps=20)),
+])
+def test_a_fit_called_outside_learn_trains_as_learn_does(caller_threads, cls, module, fit, kwargs, monkeypatch):
+    """MBIL's fit_flows and MBIL-C's fit_models, called by a user before learn: one thread, subnormals flushed, and
+    the caller's settings back afterwards."""
+    monkeypatch.delenv("SB3_MBIL_TORCH_THREADS", raising=False)
+    monkeypatch.delenv("SB3_MBIL_FLUSH_SUBNORMALS", raising=False)
+    seen = []
+    real = module.fit_conditional_density
+
+    def spy(*args, **kw):
+        seen.append((th.get_num_threads(), flushing_subnormals()))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(module, "fit_conditional_density", spy)
+    demo = load_demonstrations("CartPole-v1").sample(1, seed=0)
+    getattr(cls("MlpPolicy", "CartPole-v1", expert_data=demo, seed=0, **kwargs), fit)()
+    assert seen and set(seen) == {(1, True)}
+    assert th.get_num_threads() == caller_threads
+    assert not flushing_subnormals()

@@ -2,7 +2,8 @@
 
 The networks here (64-256 units, minibatches of 64-256) gain nothing from torch's intra-op threads, and on a machine
 whose cores are shared the default (one thread per core) runs many times slower than one thread: threads spin
-waiting for each other. So ``learn`` (and every fit it runs: MBIL's flows, MBIL-C's models) runs with
+waiting for each other. So ``learn`` (and every fit it runs: MBIL's flows, MBIL-C's models, also when a user calls
+``fit_flows`` or ``fit_models`` directly) runs with
 :data:`TRAINING_THREADS` intra-op threads and gives the caller's setting back when it returns, also on an error.
 
 Change it for every algorithm with the environment variable ``SB3_MBIL_TORCH_THREADS`` (an integer >= 1, or ``0``
@@ -20,10 +21,14 @@ mode is restored when ``learn`` returns.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import TypeVar
 
 import torch as th
+
+_Method = TypeVar("_Method", bound=Callable)
 
 #: intra-op threads while training, unless ``SB3_MBIL_TORCH_THREADS`` says otherwise (0: torch's own setting)
 TRAINING_THREADS = 1
@@ -96,3 +101,15 @@ def training_cpu(model) -> Iterator[None]:
     threads = getattr(model, "torch_threads", None)
     with torch_threads(training_threads() if threads is None else threads), flush_subnormals(flush_subnormals_enabled()):
         yield
+
+
+def on_training_cpu(method: _Method) -> _Method:
+    """Run a model's method (a fit a user may call outside ``learn``: MBIL's ``fit_flows``, MBIL-C's
+    ``fit_models``) under :func:`training_cpu`, as ``learn`` runs it."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        with training_cpu(self):
+            return method(self, *args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]

@@ -26,6 +26,7 @@ from sb3_mbil.common.demonstrations import ExpertData
 from sb3_mbil.common.flows import EVAL_CHUNK, fit_conditional_density
 from sb3_mbil.common.losses import bc_loss, resolve_bc_loss
 from sb3_mbil.common.offline import OfflineAlgorithm
+from sb3_mbil.common.threads import on_training_cpu
 from sb3_mbil.common.validation import check_bool, check_choice, check_int, check_levels, check_real, check_sizes
 from sb3_mbil.mbil.diagnostics import balance_diagnostics
 from sb3_mbil.mbil.policies import ImitationPolicy, MarkovBalanceModel
@@ -211,6 +212,7 @@ class MBIL(OfflineAlgorithm):
         return [*names, "flows"], others
 
     # ------------------------------------------------------------------ flows
+    @on_training_cpu
     def fit_flows(self) -> dict[str, Any]:
         """Fit P(a' | s, a, s') (and T(s' | s, a) when it is used) on the expert tuples (maximum likelihood).
 

@@ -10,12 +10,14 @@ import numpy as np
 import torch as th
 
 from sb3_mbil.common.flows import fit_conditional_density
+from sb3_mbil.common.threads import on_training_cpu
 from sb3_mbil.mbil_c.balance import BalanceTargets
 
 
 class BalanceModels:
     """Fitting P and T and computing the balance targets (mixed into :class:`~sb3_mbil.MBILC`)."""
 
+    @on_training_cpu
     def fit_models(self) -> dict[str, Any]:
         """Fit P_eta(a' | s, a, s') and T_psi(s' | s, a) on the expert tuples (maximum likelihood).
 
