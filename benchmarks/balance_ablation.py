@@ -21,6 +21,13 @@ The NLL pair (``--variants mbil_nll mbil_nll_alpha0``) asks the same of MBIL on 
     python -m benchmarks.balance_ablation --env Walker2d-v4 --n-trajectories 1 --seeds 100-104 \\
         --pools benchmarks/pools/Walker2d-v4-noise0.1.npz --csv results/balance_ablation.csv \\
         --variants mbil mbil_alpha0 mbil_nll mbil_nll_alpha0 mbil_next_state_only mbil_alpha3
+
+MBIL-C* on Walker2d-v4's sampled pool (weight decay 1e-3), taken apart the same way, with the balance term's anchored
+mean part alone (``mbil_c_wd0.001_alpha0_beta7``):
+
+    python -m benchmarks.balance_ablation --env Walker2d-v4 --n-trajectories 1 --seeds 100-109 \\
+        --pools Walker2d-v4-sampled --csv results/balance_ablation.csv --variants mbil_c_wd0.001 \\
+        mbil_c_wd0.001_alpha0 mbil_c_wd0.001_alpha0_beta7 mbil_c_wd0.001_next_state_only
 """
 
 from __future__ import annotations
@@ -88,6 +95,16 @@ VARIANTS = {
     "mbil_nll_alpha0": (MBIL, "mbil", {"bc_loss": "nll", "alpha": 0.0}),
     # pushing the balance term where it pays (Walker2d-v4, sigma 0.1): a heavier weight on it
     "mbil_alpha3": (MBIL, "mbil", {"alpha": 3.0}),
+    # MBIL-C* on Walker2d-v4's sampled pool (weight decay 1e-3, above BC* in Figure 4): the same triple on top of
+    # weight decay, and the balance term's mean part alone. With W2 anchored on the data, the term at the data is
+    # sum_j (a'_j - mean_pi(s')_j)^2 + (std_P(s, a, s')_j - std_pi(s')_j)^2: its mean part is a second MSE cloning
+    # term at the next states, summed over the action's dimensions where BC's MSE averages them (6 on Walker2d-v4).
+    # alpha = 0 with beta = 7 keeps that part and drops P's std target; under Adam with L2 weight decay (coupled),
+    # a loss 7 times as large is the same training as weight decay 1e-3 / 7 on the loss itself
+    "mbil_c_wd0.001": (MBILC, "mbil_c", {"weight_decay": 1e-3}),
+    "mbil_c_wd0.001_next_state_only": (MBILCNextStateOnly, "mbil_c", {"weight_decay": 1e-3}),
+    "mbil_c_wd0.001_alpha0": (MBILC, "mbil_c", {"weight_decay": 1e-3, "alpha": 0.0}),
+    "mbil_c_wd0.001_alpha0_beta7": (MBILC, "mbil_c", {"weight_decay": 1e-3, "alpha": 0.0, "beta": 7.0}),
 }
 #: what runs without --variants: the paper's P, P(a' | s') and alpha = 0, for MBIL and MBIL-C
 DEFAULT_VARIANTS = ["mbil", "mbil_next_state_only", "mbil_alpha0", "mbil_c", "mbil_c_next_state_only", "mbil_c_alpha0"]
@@ -126,7 +143,8 @@ def summary(csv_path: str) -> str:
         return paired_verdict([a[s] - b[s] for s in common]) if len(common) >= 2 else ""
 
     for (pool, n), v in sorted(cells.items()):
-        for algo, label in (("mbil", "MBIL"), ("mbil_c", "MBIL-C"), ("mbil_nll", "MBIL, NLL")):
+        for algo, label in (("mbil", "MBIL"), ("mbil_c", "MBIL-C"), ("mbil_nll", "MBIL, NLL"),
+                            ("mbil_c_wd0.001", "MBIL-C, weight decay 1e-3")):
             names = (algo, f"{algo}_next_state_only", f"{algo}_alpha0")
             if not any(v.get(x) for x in names):
                 continue
@@ -138,11 +156,17 @@ def summary(csv_path: str) -> str:
                    f"{diff(v[name], v['mbil_nll_alpha0'])}"
                    for (pool, n), v in sorted(cells.items()) for name, label in (("mbil", ""), ("mbil_alpha3", ", alpha 3"))
                    if v.get(name) and v.get("mbil_nll_alpha0")]
+    # does P's std target add anything to the anchored mean part (the MSE term 7 times as large)?
+    against_doubled = [f"- {pool}, N = {n}: MBIL-C with weight decay 1e-3 minus the same without the balance term and "
+                       f"the MSE 7 times as large (beta = 7): {diff(v['mbil_c_wd0.001'], v['mbil_c_wd0.001_alpha0_beta7'])}"
+                       for (pool, n), v in sorted(cells.items())
+                       if v.get("mbil_c_wd0.001") and v.get("mbil_c_wd0.001_alpha0_beta7")]
     # every variant's mean and per-seed returns, the rows the tables above pair
     per_variant = [f"- {pool}, N = {n}, {name}: {np.mean(list(by_seed.values())):.1f} "
                    f"({', '.join(f'{by_seed[s]:.1f}' for s in sorted(by_seed))})"
                    for (pool, n), v in sorted(cells.items()) for name, by_seed in sorted(v.items())]
-    return "\n".join(lines + ([""] + against_nll if against_nll else []) + [""] + per_variant)
+    extra = against_nll + against_doubled
+    return "\n".join(lines + ([""] + extra if extra else []) + [""] + per_variant)
 
 
 def main(argv=None) -> None:

@@ -45,3 +45,25 @@ def test_summary_pairs_the_nll_variants_and_leaves_out_algorithms_without_rows(t
     if with_mse:  # MBIL 10 above the NLL on every seed
         assert "+10.0" in against_nll[0] and "above" in against_nll[0]
     assert "- noise0.1, N = 1, mbil_nll: 800.0 (900.0, 700.0, 800.0)" in lines  # each variant's seeds, in order
+
+
+def test_summary_pairs_mbil_c_with_weight_decay_against_its_mean_part_alone(tmp_path):
+    """MBIL-C* on Walker2d-v4 (weight decay 1e-3) taken apart: its triple row, and the full term against alpha = 0
+    with the MSE 7 times as large (the anchored W2's mean part summed over 6 action dimensions)."""
+    from benchmarks.balance_ablation import COLUMNS, VARIANTS, summary
+    from benchmarks.harness.results import append_rows
+
+    assert VARIANTS["mbil_c_wd0.001_alpha0_beta7"][2] == {"weight_decay": 1e-3, "alpha": 0.0, "beta": 7.0}
+    csv_path = tmp_path / "ablation.csv"
+    returns = {"mbil_c_wd0.001": [1900.0, 1500.0, 2100.0], "mbil_c_wd0.001_alpha0": [800.0, 900.0, 700.0],
+               "mbil_c_wd0.001_alpha0_beta7": [1800.0, 1600.0, 1900.0]}
+    append_rows(str(csv_path), [{"variant": name, "env": "Walker2d-v4", "pool": "Walker2d-v4-sampled",
+                                 "n_trajectories": 1, "seed": 100 + i, "mean_return": r, "std_return": 0.0,
+                                 "n_episodes": 100, "settings": "{}", "commit": "x"}
+                                for name, rs in returns.items() for i, r in enumerate(rs)], COLUMNS)
+    lines = summary(str(csv_path)).splitlines()
+    row = [line for line in lines if "| MBIL-C, weight decay 1e-3 |" in line]
+    assert len(row) == 1 and "1833.3 (3)" in row[0] and "800.0 (3)" in row[0]
+    assert "+1033.3" in row[0] and "above" in row[0]  # against alpha = 0
+    doubled = [line for line in lines if "the MSE 7 times as large" in line]
+    assert len(doubled) == 1 and "+66.7" in doubled[0] and "level" in doubled[0]
