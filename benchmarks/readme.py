@@ -1,5 +1,6 @@
 """The README's numbers, computed from the committed result files: the "which algorithm" table, the results table
-(at most 15 lines) and its figure. Each table is written between its two markers in README.md, never by hand::
+(one trajectory: at most 14 lines) and its figure. Each table is written between its two markers in README.md,
+never by hand::
 
     python -m benchmarks.readme --overwrite        # rewrites the marked blocks and results/readme.png
 
@@ -9,10 +10,12 @@ What goes in (one expert trajectory unless stated; every algorithm on the same d
   10 seeds, 300 episodes) and the MuJoCo curves (results/figure4.csv, 5 seeds, the mean of each seed's last 10
   evaluations);
 * sampled demonstrations (the experts' own sampled actions): results/stochastic/<env>.csv, each algorithm at its
-  best variant on the tuning seeds (BC*, MBIL*, MBIL-C*), N = 1 and 3.
+  best variant on the tuning seeds (BC*, MBIL*, MBIL-C*): N = 1 in the results table and figure, N = 1 and 3 in
+  the which table.
 
 Scores are normalised: 0 is a random policy and 1 the expert (MuJoCo: the return over the expert's). A mark after
-a score says its paired 95% interval against BC (BC* on sampled data) excludes zero: ``+`` above, ``-`` below.
+a score says its paired 95% interval against BC (BC* on sampled data) excludes zero: ``+`` above, ``-`` below; a
+score over fewer seeds than the setting's others (a cell still running) says how many.
 """
 
 from __future__ import annotations
@@ -65,7 +68,9 @@ class Setting:
         mark, interval = "", self.against_bc(algo) if algo != "bc" else None
         if interval is not None:
             mark = "+" if interval[0] > 0 else ("-" if interval[1] < 0 else "")
-        return f"{self.mean(algo):.2f}{mark}"
+        seeds = len(self.scores[algo])
+        partial = f" ({seeds} seeds)" if seeds < max(len(v) for v in self.scores.values()) else ""
+        return f"{self.mean(algo):.2f}{mark}{partial}"
 
     def best_baseline(self) -> str | None:
         others = [a for a in self.scores if a not in ("bc", *FAMILY)]
@@ -218,7 +223,8 @@ def replace_block(text: str, name: str, body: str) -> str:
 
 def readme_blocks() -> tuple[dict[str, str], list[Setting]]:
     deterministic, sampled = deterministic_settings(), sampled_settings()
-    settings = deterministic + sampled
+    # one trajectory in the results table and figure (at most 7 + 7 lines); three enter the which table
+    settings = deterministic + [s for s in sampled if s.n == 1]
     return {"which": which_table(deterministic, sampled), "results": results_table(settings)}, settings
 
 

@@ -26,3 +26,14 @@ def test_the_readme_tables_are_the_result_files_numbers(monkeypatch):
 def test_a_block_without_its_markers_is_refused():
     with pytest.raises(ValueError, match="markers"):
         replace_block("no markers here", "results", "| x |")
+
+
+def test_a_score_over_fewer_seeds_than_its_settings_others_says_how_many():
+    from benchmarks.readme import Setting
+
+    s = Setting("sampled", "Walker2d-v4", 1, scores={
+        "bc": {i: 0.3 for i in range(10)}, "mbil_c": {i: 0.4 + 0.01 * i for i in range(10)},
+        "mbil": {0: 0.5, 1: 0.35}})
+    assert s.cell("bc") == "0.30"
+    assert s.cell("mbil_c") == "0.45+"
+    assert s.cell("mbil") == "0.42 (2 seeds)"
