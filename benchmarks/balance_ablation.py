@@ -28,6 +28,11 @@ mean part alone (``mbil_c_wd0.001_alpha0_beta7``):
     python -m benchmarks.balance_ablation --env Walker2d-v4 --n-trajectories 1 --seeds 100-109 \\
         --pools Walker2d-v4-sampled --csv results/balance_ablation.csv --variants mbil_c_wd0.001 \\
         mbil_c_wd0.001_alpha0 mbil_c_wd0.001_alpha0_beta7 mbil_c_wd0.001_next_state_only
+
+and pushed where its ablation points (P's std target): the balance term three times as heavy, a stronger weight decay
+
+    python -m benchmarks.balance_ablation --env Walker2d-v4 --n-trajectories 1 --seeds 100-109 \\
+        --pools Walker2d-v4-sampled --csv results/balance_ablation.csv --variants mbil_c_wd0.001_alpha3 mbil_c_wd0.003
 """
 
 from __future__ import annotations
@@ -105,7 +110,12 @@ VARIANTS = {
     "mbil_c_wd0.001_next_state_only": (MBILCNextStateOnly, "mbil_c", {"weight_decay": 1e-3}),
     "mbil_c_wd0.001_alpha0": (MBILC, "mbil_c", {"weight_decay": 1e-3, "alpha": 0.0}),
     "mbil_c_wd0.001_alpha0_beta7": (MBILC, "mbil_c", {"weight_decay": 1e-3, "alpha": 0.0, "beta": 7.0}),
+    # pushing what carries it (P's std target): the balance term three times as heavy, and a stronger weight decay
+    "mbil_c_wd0.001_alpha3": (MBILC, "mbil_c", {"weight_decay": 1e-3, "alpha": 3.0}),
+    "mbil_c_wd0.003": (MBILC, "mbil_c", {"weight_decay": 3e-3}),
 }
+#: the pushed settings of MBIL-C*, each paired against it
+PUSHED = {"mbil_c_wd0.001_alpha3": "alpha 3", "mbil_c_wd0.003": "weight decay 3e-3"}
 #: what runs without --variants: the paper's P, P(a' | s') and alpha = 0, for MBIL and MBIL-C
 DEFAULT_VARIANTS = ["mbil", "mbil_next_state_only", "mbil_alpha0", "mbil_c", "mbil_c_next_state_only", "mbil_c_alpha0"]
 COLUMNS = ["variant", "env", "pool", "n_trajectories", "seed", "mean_return", "std_return", "n_episodes", "settings",
@@ -161,11 +171,16 @@ def summary(csv_path: str) -> str:
                        f"the MSE 7 times as large (beta = 7): {diff(v['mbil_c_wd0.001'], v['mbil_c_wd0.001_alpha0_beta7'])}"
                        for (pool, n), v in sorted(cells.items())
                        if v.get("mbil_c_wd0.001") and v.get("mbil_c_wd0.001_alpha0_beta7")]
+    # does pushing P's std target (a heavier balance term, a stronger weight decay) add to MBIL-C*?
+    pushed = [f"- {pool}, N = {n}: MBIL-C with weight decay 1e-3, {label}, minus at alpha 1 and weight decay 1e-3: "
+              f"{diff(v[name], v['mbil_c_wd0.001'])}"
+              for (pool, n), v in sorted(cells.items()) for name, label in PUSHED.items()
+              if v.get(name) and v.get("mbil_c_wd0.001")]
     # every variant's mean and per-seed returns, the rows the tables above pair
     per_variant = [f"- {pool}, N = {n}, {name}: {np.mean(list(by_seed.values())):.1f} "
                    f"({', '.join(f'{by_seed[s]:.1f}' for s in sorted(by_seed))})"
                    for (pool, n), v in sorted(cells.items()) for name, by_seed in sorted(v.items())]
-    extra = against_nll + against_doubled
+    extra = against_nll + against_doubled + pushed
     return "\n".join(lines + ([""] + extra if extra else []) + [""] + per_variant)
 
 

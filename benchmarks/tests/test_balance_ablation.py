@@ -56,7 +56,8 @@ def test_summary_pairs_mbil_c_with_weight_decay_against_its_mean_part_alone(tmp_
     assert VARIANTS["mbil_c_wd0.001_alpha0_beta7"][2] == {"weight_decay": 1e-3, "alpha": 0.0, "beta": 7.0}
     csv_path = tmp_path / "ablation.csv"
     returns = {"mbil_c_wd0.001": [1900.0, 1500.0, 2100.0], "mbil_c_wd0.001_alpha0": [800.0, 900.0, 700.0],
-               "mbil_c_wd0.001_alpha0_beta7": [1800.0, 1600.0, 1900.0]}
+               "mbil_c_wd0.001_alpha0_beta7": [1800.0, 1600.0, 1900.0],
+               "mbil_c_wd0.003": [2000.0, 1600.0, 2200.0]}  # 100 above MBIL-C* on every seed
     append_rows(str(csv_path), [{"variant": name, "env": "Walker2d-v4", "pool": "Walker2d-v4-sampled",
                                  "n_trajectories": 1, "seed": 100 + i, "mean_return": r, "std_return": 0.0,
                                  "n_episodes": 100, "settings": "{}", "commit": "x"}
@@ -67,3 +68,5 @@ def test_summary_pairs_mbil_c_with_weight_decay_against_its_mean_part_alone(tmp_
     assert "+1033.3" in row[0] and "above" in row[0]  # against alpha = 0
     doubled = [line for line in lines if "the MSE 7 times as large" in line]
     assert len(doubled) == 1 and "+66.7" in doubled[0] and "level" in doubled[0]
+    pushed = [line for line in lines if "minus at alpha 1 and weight decay 1e-3" in line]
+    assert len(pushed) == 1 and "weight decay 3e-3" in pushed[0] and "+100.0" in pushed[0] and "above" in pushed[0]
