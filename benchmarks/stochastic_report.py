@@ -195,9 +195,20 @@ def plot_crossover(rows, chosen_by_pool, path: str) -> None:
     plt.close(fig)
 
 
+def curve_label(name: str, chosen: dict, tuning_grid) -> str | None:
+    """A Figure 4 curve's legend: BC, MBIL and MBIL-C at their zoo entries, each algorithm's tuned variant (BC*,
+    MBIL*, MBIL-C*, ``chosen``: algorithm -> variant) and the baselines; None for the other variants of the grid."""
+    for algo in ("bc", "mbil", "mbil_c"):
+        if name == algo:
+            return LABEL[algo]
+        if name == chosen.get(algo):
+            return f"{LABEL[algo]}* ({name})"
+    return None if name in tuning_grid else LABEL.get(name, name)
+
+
 def plot_curves(rows, chosen, path: str) -> None:
-    """Figure 4 on the sampled pools: per env, the mean learning curve over seeds of BC, BC*, MBIL, MBIL-C and the
-    baselines (nothing written without rows)."""
+    """Figure 4 on the sampled pools: per env, the mean learning curve over seeds of BC, BC*, MBIL, MBIL*, MBIL-C,
+    MBIL-C* and the baselines (nothing written without rows)."""
     import json
 
     import matplotlib
@@ -215,13 +226,12 @@ def plot_curves(rows, chosen, path: str) -> None:
     keys = sorted(cells)
     fig, axes = plt.subplots(1, len(keys), figsize=(4.5 * len(keys), 3.5), squeeze=False)
     for ax, key in zip(axes[0], keys):
-        star = chosen.get(key, {}).get("bc")
         for name, curves in sorted(cells[key].items()):
-            if name not in ("bc", "mbil", "mbil_c", star) and name in variants_for(key[0]):
+            label = curve_label(name, chosen.get(key, {}), variants_for(key[0]))
+            if label is None:
                 continue  # the other tuned variants: the table has them
             steps = [p[0] for p in curves[0]]
             mean = np.mean([[p[1] for p in c] for c in curves if len(c) == len(steps)], axis=0)
-            label = f"BC* ({name})" if name == star and name != "bc" else LABEL.get(name, name)
             ax.plot(steps, mean, label=f"{label} ({len(curves)})")
         ax.set_title(f"{key[0]}, {key[1]}, N = {key[2]}")
         ax.set_xlabel("gradient updates")

@@ -239,3 +239,17 @@ def test_the_goal_scoreboard_counts_settings_above_and_below_bc_star():
     assert "| level (not finished) |" in text
     text = goal_table(rows(1, level) + rows(3, level), chosen, envs=(env,))
     assert "**missed (too few settings can still be above BC*)**" in text
+
+
+def test_figure_4_draws_each_algorithms_tuned_variant_and_the_baselines_not_the_other_variants():
+    from benchmarks.stochastic import variants_for
+    from benchmarks.stochastic_report import curve_label
+
+    grid = variants_for("Walker2d-v4")
+    chosen = {"bc": "bc_nll", "mbil": "mbil_ens5", "mbil_c": "mbil_c_wd0.001"}
+    labels = {name: curve_label(name, chosen, grid) for name in [*grid, "odice"]}
+    assert {k: v for k, v in labels.items() if v is not None} == {
+        "bc": "BC", "bc_nll": "BC* (bc_nll)", "mbil": "MBIL", "mbil_ens5": "MBIL* (mbil_ens5)", "mbil_c": "MBIL-C",
+        "mbil_c_wd0.001": "MBIL-C* (mbil_c_wd0.001)", "odice": "ODICE"}
+    # a zoo entry that is its algorithm's best is drawn once, under its own name
+    assert curve_label("mbil", {"mbil": "mbil"}, grid) == "MBIL"
