@@ -68,5 +68,5 @@ def test_summary_pairs_mbil_c_with_weight_decay_against_its_mean_part_alone(tmp_
     assert "+1033.3" in row[0] and "above" in row[0]  # against alpha = 0
     doubled = [line for line in lines if "the MSE 7 times as large" in line]
     assert len(doubled) == 1 and "+66.7" in doubled[0] and "level" in doubled[0]
-    pushed = [line for line in lines if "minus at alpha 1 and weight decay 1e-3" in line]
+    pushed = [line for line in lines if "minus MBIL-C at alpha 1 and weight decay 1e-3" in line]
     assert len(pushed) == 1 and "weight decay 3e-3" in pushed[0] and "+100.0" in pushed[0] and "above" in pushed[0]
