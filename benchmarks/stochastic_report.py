@@ -19,7 +19,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from benchmarks.stochastic import best_variants, variants_for
+from benchmarks.stochastic import PROBES, best_variants, variants_for
 from benchmarks.harness.report import paired_verdict
 from benchmarks.harness.results import read_result_rows, write_text
 from sb3_mbil.experts import EXPERTS
@@ -117,6 +117,12 @@ def grid_table(rows, chosen) -> str:
                     row.append(paired_verdict(np.array([vals[s] - variants[ref][s] for s in common])))
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
+        # a probe outside the tuning grid (benchmarks.stochastic.PROBES) is also paired against the family
+        for probe in sorted(set(variants) & set(PROBES)):
+            pairs = [f"{label} minus it {paired_verdict(np.array([variants[name][s] - variants[probe][s] for s in common]))}"
+                     for label, name in columns if name.startswith("mbil") and variants.get(name)
+                     for common in [sorted(set(variants[name]) & set(variants[probe]))] if len(common) >= 2]
+            lines += [f"Against {probe} (outside the tuning grid, not BC*): {'; '.join(pairs)}.", ""]
     return "\n".join(lines)
 
 
@@ -304,7 +310,8 @@ def coverage_table(folder: str = "results/stochastic") -> str:
         mujoco = env in MUJOCO
         best1 = chosen.get((env, pool, 1), {})
         figure4 = 10 * (len(set(ALGOS) | set(best1.values())) + len(baselines)) if len(best1) == len(ALGOS) else "?"
-        done4 = sum(1 for r in curves if (r["env"], int(r["n_trajectories"])) == (env, 1))
+        planned4 = set(ALGOS) | set(best1.values()) | set(baselines)  # a probe's curves (PROBES) are not planned
+        done4 = sum(1 for r in curves if (r["env"], int(r["n_trajectories"])) == (env, 1) and r["variant"] in planned4)
         levels = sorted({r["pool"] for r in cross if r["env"] == env})
 
         def crossover(n):

@@ -3,6 +3,7 @@
 # finished rows are skipped). Each cell's seeds train in lockstep (--lockstep: the same rows, faster), at most 10
 # models together (an ensemble's cell appends its rows every two seeds).
 #   bash benchmarks/runs/stochastic.sh ENV tuning|grid|baselines|curves|crossover|crossover-tuning [N ...]
+#   bash benchmarks/runs/stochastic.sh ENV probes [VARIANT...]
 #   bash benchmarks/runs/stochastic.sh ENV crossover-extra LEVEL VARIANT...
 # N defaults to 1 3 (tuning, grid, baselines; LunarLander-v3's crossover) or 1 (the MuJoCo crossover).
 # On the MuJoCo envs Figure 4 is the grid's one-trajectory runs: grid and baselines record their learning curve at
@@ -10,7 +11,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 env=${1:?ENV}
-stage=${2:?tuning, grid, baselines, curves, crossover, crossover-extra or crossover-tuning}
+stage=${2:?tuning, grid, baselines, curves, probes, crossover, crossover-extra or crossover-tuning}
 shift 2
 case "$env" in
   Hopper-v4|Walker2d-v4|HalfCheetah-v4|Ant-v4) levels="0 0.1 0.2 0.4"; crossover_n=1; mujoco=1;;
@@ -39,6 +40,9 @@ case "$stage" in
   # 2b. the same grid for every other algorithm that supports the action space, at its zoo entry (seed by seed
   #     where it cannot train in lockstep)
   baselines) for n in ${@:-1 3}; do grid_n $n --variants baselines; done;;
+  # 2b'. a probe outside the tuning grid (benchmarks.stochastic.PROBES; default: all of them) on the grid's draws
+  #      and seeds at N = 1 (on MuJoCo with its curve, Figure 4): paired against the family, never BC*
+  probes) grid_n 1 --variants ${@:-bc_nll_5k};;
   # 2c. Figure 4 on the sampled pool: one trajectory, every 500 updates on 10 episodes, BC, MBIL, MBIL-C, their tuned
   #     variants and the baselines. MuJoCo: the grid's and the baselines' runs at N = 1. Elsewhere its own runs,
   #     seeds 0-4, the final policy on 100 episodes
@@ -65,5 +69,5 @@ case "$stage" in
   crossover-tuning) python -m benchmarks.stochastic --env $env --pools $noise_pools --variants $bc_variants \
                --n-trajectories ${@:-$crossover_n} --seeds 100-102 --episodes 100 \
                --csv results/stochastic/tuning_$env.csv $lockstep;;
-  *) echo "stage: expected tuning, grid, baselines, curves, crossover, crossover-extra or crossover-tuning, found $stage" >&2; exit 2;;
+  *) echo "stage: expected tuning, grid, baselines, curves, probes, crossover, crossover-extra or crossover-tuning, found $stage" >&2; exit 2;;
 esac

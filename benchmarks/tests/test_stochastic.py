@@ -101,8 +101,10 @@ def test_the_page_shows_figure_4_from_the_curves_rows(tmp_path):
     # the MuJoCo envs' Figure 4: the grid's one-trajectory runs that recorded their curve (rows without one stay out)
     grid = tmp_path / "grid"
     hopper = [{**r, "env": "Hopper-v4", "pool": "Hopper-v4-sampled"} for r in rows]
-    append_rows(grid / "Hopper-v4.csv", [*hopper, {**hopper[0], "n_trajectories": 3, "curve": ""}], CURVE_COLUMNS)
-    assert len(load_curves(str(grid))) == len(rows)
+    probe = {**hopper[0], "variant": "bc_nll_5k"}  # a probe's curve is drawn and tabled, not counted as planned
+    append_rows(grid / "Hopper-v4.csv", [*hopper, {**hopper[0], "n_trajectories": 3, "curve": ""}, probe],
+                CURVE_COLUMNS)
+    assert len(load_curves(str(grid))) == len(rows) + 1
     page = sections(str(grid))
     assert "| MBIL | 3 | 421.0 |" in page
     # what has run: Hopper-v4's 6 grid rows at N = 1 (all with curves: Figure 4) and 1 at N = 3, waiting on tuning
@@ -253,3 +255,24 @@ def test_figure_4_draws_each_algorithms_tuned_variant_and_the_baselines_not_the_
         "mbil_c_wd0.001": "MBIL-C* (mbil_c_wd0.001)", "odice": "ODICE"}
     # a zoo entry that is its algorithm's best is drawn once, under its own name
     assert curve_label("mbil", {"mbil": "mbil"}, grid) == "MBIL"
+
+
+def test_a_probe_outside_the_tuning_grid_is_paired_against_the_family_and_never_becomes_bc_star():
+    from benchmarks.stochastic import PROBES, all_variants, best_variants
+    from benchmarks.stochastic_report import grid_table
+
+    assert "bc_nll_5k" in all_variants("Walker2d-v4") and "bc_nll_5k" not in all_variants("CartPole-v1")
+    assert PROBES["bc_nll_5k"].settings == {"bc_loss": "nll", "n_timesteps": 5000}
+    base = {"env": "Walker2d-v4", "pool": "Walker2d-v4-sampled", "n_trajectories": "1", "curve": ""}
+    means = {"bc": 700.0, "bc_nll": 1100.0, "mbil_c": 650.0, "mbil_c_wd0.001": 1700.0, "bc_nll_5k": 1600.0}
+    rows = [{**base, "variant": v, "algo": v.split("_")[0], "seed": str(s), "mean_return": str(m + 10 * s)}
+            for v, m in means.items() for s in range(3)]
+    chosen = {("Walker2d-v4", "Walker2d-v4-sampled", 1): {"bc": "bc_nll", "mbil_c": "mbil_c_wd0.001"}}
+    table = grid_table(rows, chosen)
+    assert "(BC* = bc_nll)" in table and "| bc_nll_5k | 3 | 1610.0 | +500.0" in table
+    probe = [line for line in table.splitlines() if line.startswith("Against bc_nll_5k")]
+    assert len(probe) == 1 and "MBIL-C minus it -950.0" in probe[0] and "MBIL-C* (mbil_c_wd0.001) minus it +100.0" in probe[0]
+    # tuning rows of a probe never make it a tuned variant: only the grid's names are picked
+    tuning = [{**r, "seed": str(100 + int(r["seed"])),
+               "mean_return": str(float(r["mean_return"]) + (5000 if r["variant"] == "bc_nll_5k" else 0))} for r in rows]
+    assert best_variants(tuning, "Walker2d-v4", "Walker2d-v4-sampled", 1)["bc"] == "bc_nll"
