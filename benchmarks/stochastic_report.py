@@ -212,10 +212,42 @@ def curve_label(name: str, chosen: dict, tuning_grid) -> str | None:
     return None if name in tuning_grid else LABEL.get(name, name)
 
 
+def _mean_curves(rows) -> dict[tuple, dict[str, tuple[list, np.ndarray, int]]]:
+    """Per (env, pool, N) and variant: the curve's updates, its mean over seeds (curves of the first's length) and
+    the number of seeds."""
+    import json
+
+    cells: dict[tuple, dict[str, list]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        cells[(r["env"], r["pool"], int(r["n_trajectories"]))][r["variant"]].append(json.loads(r["curve"]))
+    out: dict[tuple, dict] = {}
+    for key, by_variant in cells.items():
+        for name, curves in by_variant.items():
+            steps = [p[0] for p in curves[0]]
+            mean = np.mean([[p[1] for p in c] for c in curves if len(c) == len(steps)], axis=0)
+            out.setdefault(key, {})[name] = (steps, mean, len(curves))
+    return out
+
+
+def curve_summary(rows, chosen) -> str:
+    """Per Figure 4 cell and drawn curve (:func:`curve_label`): the mean curve's peak and the update it is at, and
+    its mean over the first and the last fifth of the updates (overfitting shows as a late mean below the early)."""
+    lines = ["| cell | algorithm | seeds | peak of the mean curve (at update) | mean, first fifth | mean, last fifth |",
+             "|---|---|---|---|---|---|"]
+    for key, by_variant in sorted(_mean_curves(rows).items()):
+        for name, (steps, mean, seeds) in sorted(by_variant.items()):
+            label = curve_label(name, chosen.get(key, {}), variants_for(key[0]))
+            if label is None:
+                continue
+            fifth = max(1, len(mean) // 5)
+            lines.append(f"| {key[0]}, N = {key[2]} | {label} | {seeds} | {mean.max():.0f} ({steps[int(mean.argmax())]}) "
+                         f"| {mean[:fifth].mean():.0f} | {mean[-fifth:].mean():.0f} |")
+    return "\n".join(lines)
+
+
 def plot_curves(rows, chosen, path: str) -> None:
     """Figure 4 on the sampled pools: per env, the mean learning curve over seeds of BC, BC*, MBIL, MBIL*, MBIL-C,
     MBIL-C* and the baselines (nothing written without rows)."""
-    import json
 
     import matplotlib
 
@@ -224,21 +256,17 @@ def plot_curves(rows, chosen, path: str) -> None:
 
     from sb3_mbil.common.files import atomic_write
 
-    cells: dict[tuple, dict[str, list]] = defaultdict(lambda: defaultdict(list))
-    for r in rows:
-        cells[(r["env"], r["pool"], int(r["n_trajectories"]))][r["variant"]].append(json.loads(r["curve"]))
+    cells = _mean_curves(rows)
     if not cells:
         return
     keys = sorted(cells)
     fig, axes = plt.subplots(1, len(keys), figsize=(4.5 * len(keys), 3.5), squeeze=False)
     for ax, key in zip(axes[0], keys):
-        for name, curves in sorted(cells[key].items()):
+        for name, (steps, mean, seeds) in sorted(cells[key].items()):
             label = curve_label(name, chosen.get(key, {}), variants_for(key[0]))
             if label is None:
                 continue  # the other tuned variants: the table has them
-            steps = [p[0] for p in curves[0]]
-            mean = np.mean([[p[1] for p in c] for c in curves if len(c) == len(steps)], axis=0)
-            ax.plot(steps, mean, label=f"{label} ({len(curves)})")
+            ax.plot(steps, mean, label=f"{label} ({seeds})")
         ax.set_title(f"{key[0]}, {key[1]}, N = {key[2]}")
         ax.set_xlabel("gradient updates")
         ax.set_ylabel("return (10 episodes)")
@@ -436,6 +464,8 @@ def sections(folder: str = "results/stochastic", level: str = "##", figure: str 
             "`results/stochastic/<env>.csv`), elsewhere `results/stochastic/curves_<env>.csv` (seeds 0-4, 100 "
             "episodes).", "",
             grid_table(load_curves(folder), chosen) or "Not run yet.", "",
+            *(["The curves' shape (the mean over seeds of each point's 10 episodes):", "",
+               curve_summary(load_curves(folder), chosen), ""] if load_curves(folder) else []),
             *([f"![curves]({os.path.join(os.path.dirname(figure), 'stochastic_curves.png')})", ""]
               if load_curves(folder) else []),
             f"{level} Stochastic demonstrators: the noise crossover (seeds 0-4)", "", crossover_table(cross, chosen), "",

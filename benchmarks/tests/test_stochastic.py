@@ -95,6 +95,8 @@ def test_the_page_shows_figure_4_from_the_curves_rows(tmp_path):
     append_rows(tmp_path / "curves_CartPole-v1.csv", rows, CURVE_COLUMNS)
     page = sections(str(tmp_path))
     assert "| MBIL | 3 | 421.0 |" in page and "+20.0" in page and "stochastic_curves.png" in page
+    # the curves' shape: the mean curve's peak (its update), and its means over the first and the last fifth
+    assert "| CartPole-v1, N = 1 | BC | 3 | 401 (1000) | 350 | 401 |" in page
     plot_curves(load_curves(str(tmp_path)), {}, str(tmp_path / "curves.png"))
     assert (tmp_path / "curves.png").stat().st_size > 1000
 
