@@ -123,7 +123,7 @@ VARIANTS = {
     "bc_nll_5k": (BC, "bc", {"bc_loss": "nll", "n_timesteps": 5000}),
 }
 #: the pushed settings of MBIL-C*, and BC on a shorter budget, each paired against it
-PUSHED = {"mbil_c_wd0.001_alpha3": "alpha 3", "mbil_c_wd0.003": "weight decay 3e-3",
+PUSHED = {"mbil_c_wd0.001_alpha3": "MBIL-C with weight decay 1e-3 at alpha 3", "mbil_c_wd0.003": "MBIL-C with weight decay 3e-3",
           "bc_2k": "BC, 2 000 updates", "bc_5k": "BC, 5 000 updates", "bc_nll_5k": "BC's NLL, 5 000 updates"}
 #: what runs without --variants: the paper's P, P(a' | s') and alpha = 0, for MBIL and MBIL-C
 DEFAULT_VARIANTS = ["mbil", "mbil_next_state_only", "mbil_alpha0", "mbil_c", "mbil_c_next_state_only", "mbil_c_alpha0"]
@@ -182,8 +182,8 @@ def summary(csv_path: str) -> str:
                        if v.get("mbil_c_wd0.001") and v.get("mbil_c_wd0.001_alpha0_beta7")]
     # does pushing P's std target (a heavier balance term, a stronger weight decay) add to MBIL-C*, and does BC on a
     # shorter budget reach it?
-    pushed = [f"- {pool}, N = {n}: {label if name.startswith('bc') else f'MBIL-C with weight decay 1e-3, {label},'} "
-              f"minus MBIL-C at alpha 1 and weight decay 1e-3: {diff(v[name], v['mbil_c_wd0.001'])}"
+    pushed = [f"- {pool}, N = {n}: {label} minus MBIL-C at alpha 1 and weight decay 1e-3: "
+              f"{diff(v[name], v['mbil_c_wd0.001'])}"
               for (pool, n), v in sorted(cells.items()) for name, label in PUSHED.items()
               if v.get(name) and v.get("mbil_c_wd0.001")]
     # every variant's mean and per-seed returns, the rows the tables above pair
