@@ -204,7 +204,7 @@ def plot_crossover(rows, chosen_by_pool, path: str) -> None:
 def curve_label(name: str, chosen: dict, tuning_grid) -> str | None:
     """A Figure 4 curve's legend: BC, MBIL and MBIL-C at their zoo entries, each algorithm's tuned variant (BC*,
     MBIL*, MBIL-C*, ``chosen``: algorithm -> variant) and the baselines; None for the other variants of the grid."""
-    for algo in ("bc", "mbil", "mbil_c"):
+    for algo in ALGOS:
         if name == algo:
             return LABEL[algo]
         if name == chosen.get(algo):
@@ -248,7 +248,6 @@ def curve_summary(rows, chosen) -> str:
 def plot_curves(rows, chosen, path: str) -> None:
     """Figure 4 on the sampled pools: per env, the mean learning curve over seeds of BC, BC*, MBIL, MBIL*, MBIL-C,
     MBIL-C* and the baselines (nothing written without rows)."""
-
     import matplotlib
 
     matplotlib.use("Agg")
