@@ -48,7 +48,7 @@ from benchmarks.harness.cli import check_tuning_seeds, probe_parser, run
 from benchmarks.harness.grid import git_commit, tuned_settings
 from benchmarks.harness.report import paired_verdict
 from benchmarks.harness.results import append_rows, read_result_rows
-from benchmarks.stochastic import Variant, _row, draw, pending_cells
+from benchmarks.stochastic import PROBES, Variant, _row, draw, pending_cells
 from sb3_mbil import BC, MBIL, MBILC, learn_lockstep
 from sb3_mbil.mbil.policies import MarkovBalanceModel
 from sb3_mbil.mbil_c.policies import BalanceModel
@@ -120,7 +120,7 @@ VARIANTS = {
     # for fewer updates (the learning rate's linear schedule runs over the shorter budget)
     "bc_2k": (BC, "bc", {"n_timesteps": 2000}),
     "bc_5k": (BC, "bc", {"n_timesteps": 5000}),
-    "bc_nll_5k": (BC, "bc", {"bc_loss": "nll", "n_timesteps": 5000}),
+    "bc_nll_5k": (BC, "bc", PROBES["bc_nll_5k"].settings),  # the probe that then ran on Figure 4's seeds
 }
 #: the pushed settings of MBIL-C*, and BC on a shorter budget, each paired against it
 PUSHED = {"mbil_c_wd0.001_alpha3": "MBIL-C with weight decay 1e-3 at alpha 3", "mbil_c_wd0.003": "MBIL-C with weight decay 3e-3",
