@@ -86,6 +86,11 @@ def tuning_table(rows) -> tuple[str, dict]:
     return "\n".join(lines), chosen
 
 
+def seed_differences(vals: dict, ref: dict) -> np.ndarray:
+    """The paired differences ``vals[s] - ref[s]`` (two {seed: return} maps) over the seeds both ran, in seed order."""
+    return np.array([vals[s] - ref[s] for s in sorted(set(vals) & set(ref))], dtype=float)
+
+
 def grid_table(rows, chosen) -> str:
     """Per (env, pool, N): BC, BC*, MBIL, MBIL*, MBIL-C, MBIL-C* and the baselines that ran (at their zoo entries)
     means, and each against BC* and BC, paired."""
@@ -110,18 +115,14 @@ def grid_table(rows, chosen) -> str:
                 continue
             row = [label, str(len(vals)), f"{np.mean(list(vals.values())):.1f}"]
             for ref in (reference, "bc"):
-                common = sorted(set(vals) & set(variants.get(ref, {})))
-                if name == ref or not common:
-                    row.append("")
-                else:
-                    row.append(paired_verdict(np.array([vals[s] - variants[ref][s] for s in common])))
+                d = seed_differences(vals, variants.get(ref, {}))
+                row.append("" if name == ref or not len(d) else paired_verdict(d))
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
         # a probe outside the tuning grid (benchmarks.stochastic.PROBES) is also paired against the family
         for probe in sorted(set(variants) & set(PROBES)):
-            pairs = [f"{label} minus it {paired_verdict(np.array([variants[name][s] - variants[probe][s] for s in common]))}"
-                     for label, name in columns if name.startswith("mbil") and variants.get(name)
-                     for common in [sorted(set(variants[name]) & set(variants[probe]))] if len(common) >= 2]
+            pairs = [f"{label} minus it {paired_verdict(d)}" for label, name in columns if name.startswith("mbil")
+                     for d in [seed_differences(variants.get(name, {}), variants[probe])] if len(d) >= 2]
             lines += [f"Against {probe} (outside the tuning grid, not BC*): {'; '.join(pairs)}.", ""]
     return "\n".join(lines)
 
@@ -155,8 +156,8 @@ def crossover_table(rows, chosen_by_pool) -> str:
                     f"{v.mean():.1f} +- {v.std(ddof=1) / np.sqrt(len(v)) if len(v) > 1 else 0:.1f} ({len(v)})"
 
             def diff(name, ref):
-                common = sorted(set(variants.get(name, {})) & set(variants.get(ref, {})))
-                return "" if not common else paired_verdict(np.array([variants[name][s] - variants[ref][s] for s in common]))
+                d = seed_differences(variants.get(name, {}), variants.get(ref, {}))
+                return paired_verdict(d) if len(d) else ""
 
             shown = demonstrator_return(pool)
             lines.append(f"| {noise_level(pool):g} | {'' if np.isnan(shown) else f'{shown:.1f}'} | {cell('bc')} | {cell(star)} ({star}) | {cell('mbil')} | "
@@ -399,9 +400,8 @@ def goal_table(grid_rows, chosen, envs=STUDY_ENVS) -> str:
             complete = all(len(vals) >= GOAL_SEEDS for vals in runs)
 
             def against_bc_star(name: str) -> str:
-                vals = variants.get(name, {})
-                common = sorted(set(vals) & set(ref))
-                return _verdict([vals[s] - ref[s] for s in common]) if common else "not run yet"
+                d = seed_differences(variants.get(name, {}), ref)
+                return _verdict(d) if len(d) else "not run yet"
 
             words = []
             for algo in FAMILY:
