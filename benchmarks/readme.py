@@ -179,14 +179,13 @@ def which_table(deterministic: list[Setting], sampled: list[Setting], many_csv: 
     if many:
         algo, lo, hi, n = recommendation(many)
         lines.append(f"| deterministic | 15 | `{algo}` | {lo:.2f}-{hi:.2f} | {n} envs, [BENCHMARKS.md](BENCHMARKS.md) |")
-    for few, label in ((True, "1"), (False, "3")):
-        group = [s for s in sampled if (s.n == 1) == few]
-        if group:
-            algo, lo, hi, n = recommendation(group)
-            variants = sorted({s.names[algo] for s in group})
-            lines.append(f"| noisy or sampled (the expert's own random actions) | {label} | `{algo}` "
-                         f"(tuned: {', '.join(variants)}) | {lo:.2f}-{hi:.2f} | {', '.join(s.env for s in group)} so far, "
-                         "[results/stochastic.md](results/stochastic.md) |")
+    for trajectories in sorted({s.n for s in sampled}):  # one row per N that has run: few (1, 3) and many (15)
+        group = [s for s in sampled if s.n == trajectories]
+        algo, lo, hi, n = recommendation(group)
+        variants = sorted({s.names[algo] for s in group})
+        lines.append(f"| noisy or sampled (the expert's own random actions) | {trajectories} | `{algo}` "
+                     f"(tuned: {', '.join(variants)}) | {lo:.2f}-{hi:.2f} | {', '.join(s.env for s in group)} so far, "
+                     "[results/stochastic.md](results/stochastic.md) |")
     return "\n".join(lines)
 
 

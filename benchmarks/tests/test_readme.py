@@ -37,3 +37,20 @@ def test_a_score_over_fewer_seeds_than_its_settings_others_says_how_many():
     assert s.cell("bc") == "0.30"
     assert s.cell("mbil_c") == "0.45+"
     assert s.cell("mbil") == "0.42 (2 seeds)"
+
+
+def test_the_which_table_has_one_sampled_row_per_number_of_trajectories():
+    from benchmarks.readme import Setting, which_table
+
+    def setting(env, n, bc, mbil):
+        s = Setting("sampled", env, n, scores={"bc": {i: bc for i in range(3)}, "mbil": {i: mbil + 0.01 * i for i in range(3)},
+                                               "mbil_c": {i: bc for i in range(3)}})
+        s.names = {"bc": "bc_wd0", "mbil": "mbil", "mbil_c": "mbil_c"}
+        return s
+
+    table = which_table([], [setting("CartPole-v1", 15, 0.9, 0.5), setting("CartPole-v1", 1, 0.3, 0.3),
+                             setting("Acrobot-v1", 15, 0.8, 0.4)], many_csv="/nonexistent.csv")
+    rows = [line.split(" | ") for line in table.splitlines()[2:]]
+    assert [r[1] for r in rows] == ["1", "15"]
+    assert rows[1][2].startswith("`bc`") and rows[1][3] == "0.80-0.90"
+    assert "CartPole-v1, Acrobot-v1 so far" in rows[1][4]
