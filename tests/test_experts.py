@@ -310,12 +310,12 @@ def test_noisy_demonstrator_pool(tmp_path, dqn_zip):
 def test_pools_of_sampled_actions_by_selector():
     from sb3_mbil.common.demonstrations import pool_name
 
+    assert {f"{env_id}-sampled" for env_id in EXPERTS} <= set(available_pools())  # every benchmark env ships one
     for env_id in EXPERTS:
-        if f"{env_id}-sampled" in available_pools():
-            assert pool_name(env_id, actions="sampled") == f"{env_id}-sampled"
-            assert pool_name(env_id, EXPERTS[env_id].algo, actions="sampled") == f"{env_id}-sampled"
-            d = load_demonstrations(env_id, actions="sampled")
-            assert d.metadata["expert_actions"] == "sampled" and d.metadata["pool"] == f"{env_id}-sampled"
+        assert pool_name(env_id, actions="sampled") == f"{env_id}-sampled"
+        assert pool_name(env_id, EXPERTS[env_id].algo, actions="sampled") == f"{env_id}-sampled"
+        d = load_demonstrations(env_id, actions="sampled")
+        assert d.metadata["expert_actions"] == "sampled" and d.metadata["pool"] == f"{env_id}-sampled"
     with pytest.raises(ValueError, match=r"actions: expected one of \['deterministic', 'sampled'\], found 'noisy'"):
         load_demonstrations("CartPole-v1", actions="noisy")
     with pytest.raises(ValueError, match="actions: expected a shipped pool 'NoSuchEnv-v0-sampled'"):
